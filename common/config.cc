@@ -1,0 +1,85 @@
+#include "common/config.h"
+
+#include <fstream>
+#include <sstream>
+
+namespace rumi {
+
+ConfigSection::ConfigSection()
+    : node_(YAML::NodeType::Map), file_("<defaults>"), used_(std::make_shared<std::set<std::string>>()) {}
+
+ConfigSection::ConfigSection(YAML::Node node, std::string file, std::string path)
+    : node_(node), file_(std::move(file)), path_(std::move(path)),
+      used_(std::make_shared<std::set<std::string>>()) {
+  if (!node_ || node_.IsNull()) node_ = YAML::Node(YAML::NodeType::Map);
+  if (!node_.IsMap()) throw ConfigError(file_ + ": top level must be a map of keys");
+}
+
+std::string ConfigSection::FullKey(const std::string& key) const {
+  return path_.empty() ? key : path_ + "." + key;
+}
+
+bool ConfigSection::Has(const std::string& key) const {
+  return node_.IsMap() && node_[key] && !node_[key].IsNull();
+}
+
+ConfigSection ConfigSection::Child(const std::string& key) {
+  ConfigSection c;
+  c.file_ = file_;
+  c.path_ = FullKey(key);
+  c.used_ = used_;
+  used_->insert(FullKey(key));
+  if (Has(key)) {
+    if (!node_[key].IsMap()) Fail(key, "expected a section (map of keys)");
+    c.node_ = node_[key];
+  }
+  return c;
+}
+
+void ConfigSection::Fail(const std::string& key, const std::string& why) const {
+  throw ConfigError(file_ + ": key '" + FullKey(key) + "': " + why);
+}
+
+namespace {
+void CollectUnknown(const YAML::Node& node, const std::string& path,
+                    const std::set<std::string>& used, std::vector<std::string>* out) {
+  for (const auto& kv : node) {
+    const std::string key = path.empty() ? kv.first.as<std::string>()
+                                         : path + "." + kv.first.as<std::string>();
+    if (!used.count(key)) {
+      out->push_back(key);
+    } else if (kv.second.IsMap()) {
+      CollectUnknown(kv.second, key, used, out);
+    }
+  }
+}
+}  // namespace
+
+void ConfigSection::Finish() const {
+  std::vector<std::string> unknown;
+  if (node_.IsMap()) CollectUnknown(node_, path_, *used_, &unknown);
+  if (unknown.empty()) return;
+  std::string msg = file_ + ": unknown key" + (unknown.size() > 1 ? "s" : "") + ":";
+  for (const auto& k : unknown) msg += " '" + k + "'";
+  throw ConfigError(msg);
+}
+
+ConfigSection LoadConfigFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path + ": cannot open config file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return LoadConfigString(ss.str(), path);
+}
+
+ConfigSection LoadConfigString(const std::string& yaml, const std::string& name) {
+  YAML::Node node;
+  try {
+    node = YAML::Load(yaml);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(name + ": malformed YAML at line " + std::to_string(e.mark.line + 1) + ": " + e.msg);
+  }
+  return ConfigSection(node, name);
+}
+
+}  // namespace rumi

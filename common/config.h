@@ -1,0 +1,89 @@
+#pragma once
+// YAML configuration with strict checking: every key read is recorded, and
+// Finish() reports keys nobody read (typos), so a program refuses to start
+// on a config it does not fully understand. Errors name file, key and reason.
+//
+// Pattern for a configurable part:
+//   struct FooOptions { int n = 3; bool Check(std::string* why) const; };
+//   void ReadOptions(ConfigSection& s, FooOptions* o) { s.Read("n", &o->n); }
+#include <yaml-cpp/yaml.h>
+
+#include <memory>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace rumi {
+
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class ConfigSection {
+ public:
+  ConfigSection();  // empty config (all defaults)
+  ConfigSection(YAML::Node node, std::string file, std::string path = "");
+
+  bool Has(const std::string& key) const;
+  // Reads key into *value when present; keeps the default when absent.
+  // Throws ConfigError on a wrong type.
+  template <typename T>
+  bool Read(const std::string& key, T* value);
+  // As Read, and throws when the value is outside [lo, hi].
+  template <typename T>
+  bool ReadInRange(const std::string& key, T* value, T lo, T hi);
+  // Sub-section (empty when absent; throws when present but not a map).
+  ConfigSection Child(const std::string& key);
+
+  // Throws ConfigError listing every key that was present but never read.
+  void Finish() const;
+  // Throws ConfigError for this section's key with the given reason.
+  [[noreturn]] void Fail(const std::string& key, const std::string& why) const;
+
+  const std::string& file() const { return file_; }
+  std::string FullKey(const std::string& key) const;
+
+ private:
+  YAML::Node node_;
+  std::string file_;
+  std::string path_;
+  std::shared_ptr<std::set<std::string>> used_;
+};
+
+// Loads a YAML file; throws ConfigError when missing, unreadable or malformed.
+ConfigSection LoadConfigFile(const std::string& path);
+ConfigSection LoadConfigString(const std::string& yaml, const std::string& name = "<string>");
+
+// Throws ConfigError "<file>: <section>: <why>" when options.Check fails.
+template <typename Options>
+void CheckOptions(const Options& o, const ConfigSection& s, const std::string& section) {
+  std::string why;
+  if (!o.Check(&why)) s.Fail(section, why.empty() ? "invalid options" : why);
+}
+
+// ---- implementation of the templates ----
+template <typename T>
+bool ConfigSection::Read(const std::string& key, T* value) {
+  if (!Has(key)) return false;
+  used_->insert(FullKey(key));
+  try {
+    *value = node_[key].as<T>();
+  } catch (const YAML::Exception&) {
+    Fail(key, "wrong type (value '" + YAML::Dump(node_[key]) + "')");
+  }
+  return true;
+}
+
+template <typename T>
+bool ConfigSection::ReadInRange(const std::string& key, T* value, T lo, T hi) {
+  if (!Read(key, value)) return false;
+  if (*value < lo || *value > hi) {
+    Fail(key, "value " + YAML::Dump(node_[key]) + " out of range [" + YAML::Dump(YAML::Node(lo)) +
+                  ", " + YAML::Dump(YAML::Node(hi)) + "]");
+  }
+  return true;
+}
+
+}  // namespace rumi

@@ -1,0 +1,12 @@
+#pragma once
+// One logging setup for every rumi process: spdlog to stderr, process name in
+// every line, level from config or CLI ("trace".."off").
+#include <spdlog/spdlog.h>
+#include <string>
+
+namespace rumi {
+
+// Returns false (and keeps "info") when level is not a known spdlog level.
+bool SetupLogging(const std::string& process_name, const std::string& level = "info");
+
+}  // namespace rumi

@@ -1,0 +1,73 @@
+#pragma once
+// The submap: the unit that front, back and manager exchange (over shared
+// memory and in the map file). Each submap has its own world frame and, being
+// monocular, its own scale; the manager stores its Sim(3) into the global frame.
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "common/geometry.h"
+#include "common/timestamp.h"
+
+namespace rumi {
+
+enum class SubmapSource : uint8_t { kFront = 0, kBack = 1, kMerged = 2 };
+
+enum class TrackingState : uint8_t {
+  kInitializing = 0,  // no map yet (or re-initialising after a loss)
+  kTracking = 1,
+  kLost = 2,
+  kCoarse = 3,  // hierarchical mode: vision suspended, pose from odometry
+};
+const char* ToString(TrackingState s);
+
+struct Keyframe {
+  int64_t id = -1;          // unique within its submap
+  Timestamp timestamp = 0;  // capture time (frame identity across processes)
+  Se3 T_cw;                 // world (submap frame) -> camera
+  // Keypoints in UNDISTORTED pixel coordinates of the submap camera's K, so
+  // that front (ORB) and back (COLMAP on undistorted images) agree.
+  std::vector<Eigen::Vector2f> keypoints;
+  std::vector<uint8_t> octaves;     // pyramid level per keypoint (0 for back)
+  cv::Mat descriptors;              // one row per keypoint (ORB: 32 x CV_8U); may be empty
+  std::vector<int64_t> point_ids;   // map point per keypoint, -1 for none
+  Se3 T_wc() const { return T_cw.Inverse(); }
+};
+
+struct MapPoint {
+  int64_t id = -1;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  // submap frame
+  cv::Mat descriptor;  // representative descriptor (1 row), may be empty
+  struct Observation {
+    int64_t keyframe_id;
+    int32_t keypoint_index;
+  };
+  std::vector<Observation> observations;
+};
+
+// Per input frame as the front saw it (also frames that are not keyframes).
+struct FrameRecord {
+  Timestamp timestamp = 0;
+  TrackingState state = TrackingState::kInitializing;
+  int64_t submap_id = -1;
+  Se3 T_wc;  // valid when state == kTracking (or kCoarse)
+};
+
+struct CameraIntrinsics {
+  int width = 0, height = 0;
+  double fx = 0, fy = 0, cx = 0, cy = 0;  // undistorted pinhole model
+};
+
+struct Submap {
+  int64_t id = -1;  // unique per source within one rumi instance
+  SubmapSource source = SubmapSource::kFront;
+  CameraIntrinsics camera;
+  std::vector<Keyframe> keyframes;     // sorted by timestamp
+  std::vector<MapPoint> points;
+  std::vector<FrameRecord> frames;     // front: every frame of this submap
+};
+
+}  // namespace rumi

@@ -1,0 +1,10 @@
+#pragma once
+// Each subcommand of the `rumi` CLI registers itself here.
+#include <CLI/CLI.hpp>
+
+namespace rumi::cli {
+
+void RegisterEvalCommands(CLI::App* app);   // eval_command.cc: eval ate (later eval run/table)
+void RegisterSynthCommand(CLI::App* app);   // synth_command.cc
+
+}  // namespace rumi::cli
