@@ -1,0 +1,32 @@
+#pragma once
+// A sampled image window: what the front's sampler ships to the back (the
+// paper's S = S1 u S2 u S3). Images are as captured (distorted); the camera
+// carries the distortion so the back can undistort before COLMAP.
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <vector>
+
+#include "common/camera.h"
+#include "common/submap.h"
+#include "common/timestamp.h"
+
+namespace rumi {
+
+enum class SampleSet : uint8_t { kS1 = 1, kS2 = 2, kS3 = 3 };
+
+struct WindowFrame {
+  Timestamp timestamp = 0;
+  cv::Mat image;  // 8-bit grey
+  TrackingState front_state = TrackingState::kTracking;
+  SampleSet set = SampleSet::kS1;
+  int64_t front_submap_id = -1;
+};
+
+struct ImageWindow {
+  int64_t id = -1;
+  PinholeCameraOptions camera;
+  std::vector<WindowFrame> frames;  // time order
+};
+
+}  // namespace rumi
