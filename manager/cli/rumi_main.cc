@@ -10,6 +10,7 @@ int main(int argc, char** argv) {
   std::string log_level = "info";
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, off");
   rumi::cli::RegisterEvalCommands(&app);
+  rumi::cli::AddEvalTableCommand(app.get_subcommand("eval"));
   rumi::cli::RegisterSynthCommand(&app);
   app.parse_complete_callback([&] { rumi::SetupLogging("rumi", log_level); });
   CLI11_PARSE(app, argc, argv);

@@ -1,0 +1,60 @@
+#include "common/eval_table.h"
+
+#include <gtest/gtest.h>
+
+namespace rumi {
+namespace {
+
+std::string Metrics(double front_rate, const char* front_rmse, double merged_rate, const char* merged_rmse,
+                    int saved, int saved_po) {
+  return std::string("{\"sequence\":\"seq\",\"front_tracking_rate_time\":") + std::to_string(front_rate) +
+         ",\"front_ate_rmse\":" + front_rmse + ",\"merged_tracking_rate_time\":" + std::to_string(merged_rate) +
+         ",\"merged_ate_rmse\":" + merged_rmse + ",\"front_saved_frames\":40,\"saved_frames\":" +
+         std::to_string(saved) + ",\"saved_frames_postculled\":" + std::to_string(saved_po) + "}";
+}
+
+TEST(EvalTable, ParsesKeysAndNullRmse) {
+  const RunMetrics m = ParseRunMetrics(Metrics(0.31, "null", 0.97, "0.012", 300, 100), "m.json");
+  EXPECT_EQ(m.sequence, "seq");
+  EXPECT_DOUBLE_EQ(m.front_rate, 0.31);
+  EXPECT_FALSE(m.front_rmse.has_value());
+  ASSERT_TRUE(m.merged_rmse.has_value());
+  EXPECT_DOUBLE_EQ(*m.merged_rmse, 0.012);
+  EXPECT_DOUBLE_EQ(m.merged_frames, 300);
+  EXPECT_DOUBLE_EQ(m.po_frames, 100);
+  EXPECT_DOUBLE_EQ(m.po_rate, 0.97);  // falls back to merged
+}
+
+TEST(EvalTable, ErrorsNameTheKey) {
+  try {
+    ParseRunMetrics("{\"front_tracking_rate_time\": 1}", "run1/metrics.json");
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("run1/metrics.json"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("merged_tracking_rate_time"), std::string::npos);
+  }
+  EXPECT_THROW(ParseRunMetrics("not json", "x"), std::runtime_error);
+  EXPECT_THROW(ParseRunMetrics("{\"front_tracking_rate_time\":\"a\"}", "x"), std::runtime_error);
+}
+
+TEST(EvalTable, RmseHiddenBelowNinetyPercentAndMeanStd) {
+  TableRow row{"drop", {ParseRunMetrics(Metrics(0.30, "0.5", 0.96, "0.010", 300, 100), "a"),
+                        ParseRunMetrics(Metrics(0.32, "0.5", 0.98, "0.014", 310, 110), "b")}};
+  const std::string md = FormatEvalTableMarkdown({row});
+  // Merged: 97.0 ± 1.4 rate, RMSE 0.012 ± 0.003; front rate 31 % -> RMSE "-".
+  EXPECT_NE(md.find("| drop | 97.0 ± 1.4 | 0.012 ± 0.003 | 105 ± 7 | 97.0 ± 1.4 | 0.012 ± 0.003 | 305 ± 7 |"
+                    " 31.0 ± 1.4 | - | 40 ± 0 |"),
+            std::string::npos)
+      << md;
+  const std::string csv = FormatEvalTableCsv({row});
+  EXPECT_NE(csv.find("drop,2,"), std::string::npos) << csv;
+}
+
+TEST(EvalTable, MissingRmseInAnyRunHidesIt) {
+  TableRow row{"s", {ParseRunMetrics(Metrics(0.95, "null", 0.99, "null", 1, 1), "a")}};
+  const std::string md = FormatEvalTableMarkdown({row});
+  EXPECT_NE(md.find("| s | 99.0 | - | 1 | 99.0 | - | 1 | 95.0 | - | 40 |"), std::string::npos) << md;
+}
+
+}  // namespace
+}  // namespace rumi

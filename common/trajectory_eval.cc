@@ -1,0 +1,294 @@
+#include "common/trajectory_eval.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace rumi {
+namespace {
+
+Timestamp AbsDiff(Timestamp a, Timestamp b) { return a > b ? a - b : b - a; }
+
+// Index of the element of `sorted` nearest to t; the earlier one on a tie
+// (numpy argmin returns the first minimum).
+size_t Nearest(const std::vector<Timestamp>& sorted, Timestamp t) {
+  const auto it = std::lower_bound(sorted.begin(), sorted.end(), t);
+  if (it == sorted.begin()) return 0;
+  if (it == sorted.end()) return sorted.size() - 1;
+  const size_t hi = static_cast<size_t>(it - sorted.begin());
+  return AbsDiff(sorted[hi - 1], t) <= AbsDiff(sorted[hi], t) ? hi - 1 : hi;
+}
+
+std::vector<Timestamp> Times(const Trajectory& traj) {
+  std::vector<Timestamp> out;
+  out.reserve(traj.size());
+  for (const StampedPose& p : traj) out.push_back(p.t);
+  return out;
+}
+
+void RequireIncreasing(const std::vector<Timestamp>& t, const char* what) {
+  for (size_t i = 1; i < t.size(); ++i) {
+    if (t[i] <= t[i - 1]) {
+      throw std::runtime_error(std::string(what) + " timestamps are not strictly increasing at " +
+                               std::to_string(i) + " (" + FormatSeconds(t[i]) + " after " +
+                               FormatSeconds(t[i - 1]) + ")");
+    }
+  }
+}
+
+double Median(std::vector<double> v) {
+  const size_t n = v.size();
+  std::nth_element(v.begin(), v.begin() + n / 2, v.end());
+  const double upper = v[n / 2];
+  if (n % 2 == 1) return upper;
+  return 0.5 * (upper + *std::max_element(v.begin(), v.begin() + n / 2));
+}
+
+}  // namespace
+
+bool AssociationOptions::Check(std::string* why) const {
+  if (!(max_diff_s >= 0.0) || !std::isfinite(max_diff_s)) {
+    if (why) *why = "max_diff_s must be a finite value >= 0";
+    return false;
+  }
+  return true;
+}
+
+std::vector<PosePair> AssociateByTimestamp(const Trajectory& est, const Trajectory& gt,
+                                           const AssociationOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw std::invalid_argument("AssociationOptions: " + why);
+  const std::vector<Timestamp> te = Times(est), tg = Times(gt);
+  RequireIncreasing(te, "estimate");
+  RequireIncreasing(tg, "ground truth");
+  const Timestamp max_diff = SecondsToNs(options.max_diff_s);
+  // As evo: the shorter trajectory drives (the estimate when equally long).
+  const bool est_drives = te.size() <= tg.size();
+  const std::vector<Timestamp>& drive = est_drives ? te : tg;
+  const std::vector<Timestamp>& other = est_drives ? tg : te;
+  std::vector<PosePair> pairs;
+  if (drive.empty() || other.empty()) return pairs;
+  // best[j]: position in `pairs` of the pair currently holding other[j].
+  std::vector<long> best(options.one_to_one ? other.size() : 0, -1);
+  std::vector<bool> keep;
+  for (size_t i = 0; i < drive.size(); ++i) {
+    const size_t j = Nearest(other, drive[i]);
+    const Timestamp dt = AbsDiff(other[j], drive[i]);
+    if (dt > max_diff) continue;
+    pairs.push_back(est_drives ? PosePair{i, j} : PosePair{j, i});
+    keep.push_back(true);
+    if (!options.one_to_one) continue;
+    const long k = static_cast<long>(pairs.size()) - 1;
+    if (best[j] >= 0) {
+      const size_t prev_i = est_drives ? pairs[best[j]].est : pairs[best[j]].gt;
+      if (AbsDiff(other[j], drive[prev_i]) <= dt) {
+        keep[k] = false;
+        continue;
+      }
+      keep[best[j]] = false;
+    }
+    best[j] = k;
+  }
+  std::vector<PosePair> out;
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    if (keep[k]) out.push_back(pairs[k]);
+  }
+  // When the ground truth drives, estimate indices still increase with it
+  // (nearest-neighbour in time is monotone), but sort to state the contract.
+  std::stable_sort(out.begin(), out.end(),
+                   [](const PosePair& a, const PosePair& b) { return a.est < b.est; });
+  return out;
+}
+
+std::vector<PosePair> AssociateByIndex(const Trajectory& est, const Trajectory& gt) {
+  std::vector<PosePair> pairs(std::min(est.size(), gt.size()));
+  for (size_t i = 0; i < pairs.size(); ++i) pairs[i] = {i, i};
+  return pairs;
+}
+
+ErrorStats ComputeErrorStats(const std::vector<double>& errors) {
+  ErrorStats s;
+  s.count = errors.size();
+  if (errors.empty()) return s;
+  double sum = 0.0;
+  s.min = errors[0];
+  s.max = errors[0];
+  for (double e : errors) {
+    sum += e;
+    s.sse += e * e;
+    s.min = std::min(s.min, e);
+    s.max = std::max(s.max, e);
+  }
+  const double n = static_cast<double>(errors.size());
+  s.mean = sum / n;
+  s.rmse = std::sqrt(s.sse / n);
+  double var = 0.0;
+  for (double e : errors) var += (e - s.mean) * (e - s.mean);
+  s.std = std::sqrt(var / n);
+  s.median = Median(errors);
+  return s;
+}
+
+bool ParseAlignment(const std::string& name, Alignment* alignment) {
+  if (name == "none") {
+    *alignment = Alignment::kNone;
+  } else if (name == "se3") {
+    *alignment = Alignment::kSe3;
+  } else if (name == "sim3") {
+    *alignment = Alignment::kSim3;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+const char* ToString(Alignment alignment) {
+  switch (alignment) {
+    case Alignment::kNone:
+      return "none";
+    case Alignment::kSe3:
+      return "se3";
+    case Alignment::kSim3:
+      return "sim3";
+  }
+  return "?";
+}
+
+bool AteOptions::Check(std::string* why) const { return association.Check(why); }
+
+void ReadOptions(ConfigSection& s, AteOptions* o) {
+  s.ReadInRange("max_diff_s", &o->association.max_diff_s, 0.0, 1e6);
+  s.Read("one_to_one", &o->association.one_to_one);
+  s.Read("match_by_index", &o->match_by_index);
+  std::string align = ToString(o->alignment);
+  if (s.Read("alignment", &align) && !ParseAlignment(align, &o->alignment)) {
+    s.Fail("alignment", "must be none, se3 or sim3 (got '" + align + "')");
+  }
+}
+
+AteResult ComputeAte(const Trajectory& est, const Trajectory& gt, const AteOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw std::invalid_argument("AteOptions: " + why);
+  AteResult r;
+  r.num_estimate = est.size();
+  r.num_ground_truth = gt.size();
+  r.alignment = options.alignment;
+  r.pairs = options.match_by_index ? AssociateByIndex(est, gt)
+                                   : AssociateByTimestamp(est, gt, options.association);
+  if (r.pairs.empty()) {
+    throw std::runtime_error(
+        "no estimate pose has a ground-truth pose within " +
+        std::to_string(options.association.max_diff_s) + " s (estimate " +
+        (est.empty() ? std::string("empty") : FormatSeconds(est.front().t) + ".." +
+                                                  FormatSeconds(est.back().t)) +
+        ", ground truth " +
+        (gt.empty() ? std::string("empty")
+                    : FormatSeconds(gt.front().t) + ".." + FormatSeconds(gt.back().t)) +
+        ")");
+  }
+  std::vector<Eigen::Vector3d> p_est, p_gt;
+  p_est.reserve(r.pairs.size());
+  p_gt.reserve(r.pairs.size());
+  for (const PosePair& pp : r.pairs) {
+    p_est.push_back(est[pp.est].T_wc.translation());
+    p_gt.push_back(gt[pp.gt].T_wc.translation());
+    r.max_abs_dt_s = std::max(r.max_abs_dt_s, NsToSeconds(AbsDiff(est[pp.est].t, gt[pp.gt].t)));
+  }
+  if (options.alignment != Alignment::kNone) {
+    const UmeyamaResult u =
+        UmeyamaAlign(p_est, p_gt, /*with_scale=*/options.alignment == Alignment::kSim3);
+    if (!u.ok) {
+      throw std::runtime_error(std::string(ToString(options.alignment)) + " alignment failed on " +
+                               std::to_string(r.pairs.size()) +
+                               " pairs (needs >= 3 non-collinear estimate positions)");
+    }
+    r.S_gt_est = u.transform;
+  }
+  r.translation_errors.resize(r.pairs.size());
+  std::vector<double> rot(r.pairs.size());
+  for (size_t k = 0; k < r.pairs.size(); ++k) {
+    r.translation_errors[k] = (p_gt[k] - r.S_gt_est * p_est[k]).norm();
+    const Eigen::Quaterniond q_err = gt[r.pairs[k].gt].T_wc.rotation().conjugate() *
+                                     r.S_gt_est.rotation() * est[r.pairs[k].est].T_wc.rotation();
+    rot[k] = RotationAngle(q_err) * 180.0 / M_PI;
+  }
+  r.translation = ComputeErrorStats(r.translation_errors);
+  r.rotation_deg = ComputeErrorStats(rot);
+  return r;
+}
+
+bool TrackingRateOptions::Check(std::string* why) const {
+  if (!(max_gap_factor >= 1.0) || !std::isfinite(max_gap_factor)) {
+    if (why) *why = "max_gap_factor must be >= 1";
+    return false;
+  }
+  if (!(match_tolerance_s >= 0.0) || !std::isfinite(match_tolerance_s)) {
+    if (why) *why = "match_tolerance_s must be >= 0";
+    return false;
+  }
+  return true;
+}
+
+void ReadOptions(ConfigSection& s, TrackingRateOptions* o) {
+  s.ReadInRange("max_gap_factor", &o->max_gap_factor, 1.0, 1e6);
+  s.ReadInRange("match_tolerance_s", &o->match_tolerance_s, 0.0, 1e6);
+}
+
+TrackingRate ComputeTrackingRate(const std::vector<Timestamp>& frames,
+                                 const std::vector<Timestamp>& tracked,
+                                 const TrackingRateOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw std::invalid_argument("TrackingRateOptions: " + why);
+  if (frames.size() < 2) throw std::runtime_error("tracking rate needs at least 2 frames");
+  RequireIncreasing(frames, "sequence frame");
+  RequireIncreasing(tracked, "tracked");
+  TrackingRate r;
+  r.num_frames = frames.size();
+  const Timestamp first = frames.front(), last = frames.back();
+  r.sequence_duration_s = NsToSeconds(last - first);
+
+  std::vector<Timestamp> intervals(frames.size() - 1);
+  for (size_t i = 1; i < frames.size(); ++i) intervals[i - 1] = frames[i] - frames[i - 1];
+  std::nth_element(intervals.begin(), intervals.begin() + intervals.size() / 2, intervals.end());
+  const Timestamp median_dt = intervals[intervals.size() / 2];
+  r.median_frame_interval_s = NsToSeconds(median_dt);
+
+  const Timestamp tol =
+      options.match_tolerance_s > 0 ? SecondsToNs(options.match_tolerance_s) : median_dt / 2;
+  if (!tracked.empty()) {
+    for (Timestamp f : frames) {
+      if (AbsDiff(tracked[Nearest(tracked, f)], f) <= tol) ++r.num_tracked_frames;
+    }
+  }
+  r.frame_rate = static_cast<double>(r.num_tracked_frames) / static_cast<double>(r.num_frames);
+
+  // Clipped span of [a, b] inside the sequence.
+  auto clipped_span = [&](Timestamp a, Timestamp b) {
+    return std::max<Timestamp>(0, std::min(b, last) - std::max(a, first));
+  };
+  Timestamp covered = 0, segments_total = 0;
+  if (!tracked.empty()) {
+    covered = clipped_span(tracked.front(), tracked.back());
+    const double max_gap = options.max_gap_factor * static_cast<double>(median_dt);
+    size_t seg_begin = 0;
+    for (size_t i = 1; i <= tracked.size(); ++i) {
+      if (i == tracked.size() || static_cast<double>(tracked[i] - tracked[i - 1]) > max_gap) {
+        segments_total += clipped_span(tracked[seg_begin], tracked[i - 1]);
+        ++r.num_segments;
+        seg_begin = i;
+      }
+    }
+  }
+  r.covered_duration_s = NsToSeconds(covered);
+  r.tracked_duration_s = NsToSeconds(segments_total);
+  r.covered_rate = r.covered_duration_s / r.sequence_duration_s;
+  r.tracked_rate = r.tracked_duration_s / r.sequence_duration_s;
+  return r;
+}
+
+TrackingRate ComputeTrackingRate(const std::vector<Timestamp>& frames, const Trajectory& tracked,
+                                 const TrackingRateOptions& options) {
+  return ComputeTrackingRate(frames, Times(tracked), options);
+}
+
+}  // namespace rumi
