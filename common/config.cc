@@ -72,6 +72,30 @@ ConfigSection LoadConfigFile(const std::string& path) {
   return LoadConfigString(ss.str(), path);
 }
 
+namespace {
+// yaml-cpp keeps duplicate keys and answers with the first one: a later
+// override would be silently ignored, so refuse them (and non-scalar keys).
+void CheckKeys(const YAML::Node& node, const std::string& name, const std::string& path) {
+  if (node.IsSequence()) {
+    for (const auto& item : node) CheckKeys(item, name, path);
+    return;
+  }
+  if (!node.IsMap()) return;
+  std::set<std::string> seen;
+  for (const auto& kv : node) {
+    const int line = kv.first.Mark().line + 1;
+    if (!kv.first.IsScalar()) {
+      throw ConfigError(name + ": line " + std::to_string(line) + ": keys must be plain names");
+    }
+    const std::string key = path.empty() ? kv.first.Scalar() : path + "." + kv.first.Scalar();
+    if (!seen.insert(kv.first.Scalar()).second) {
+      throw ConfigError(name + ": line " + std::to_string(line) + ": duplicate key '" + key + "'");
+    }
+    CheckKeys(kv.second, name, key);
+  }
+}
+}  // namespace
+
 ConfigSection LoadConfigString(const std::string& yaml, const std::string& name) {
   YAML::Node node;
   try {
@@ -79,6 +103,7 @@ ConfigSection LoadConfigString(const std::string& yaml, const std::string& name)
   } catch (const YAML::Exception& e) {
     throw ConfigError(name + ": malformed YAML at line " + std::to_string(e.mark.line + 1) + ": " + e.msg);
   }
+  CheckKeys(node, name, "");
   return ConfigSection(node, name);
 }
 

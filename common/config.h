@@ -66,7 +66,12 @@ void CheckOptions(const Options& o, const ConfigSection& s, const std::string& s
 // ---- implementation of the templates ----
 template <typename T>
 bool ConfigSection::Read(const std::string& key, T* value) {
-  if (!Has(key)) return false;
+  if (!Has(key)) {
+    // "key:" with nothing after it is a mistake, not a request for the default.
+    const YAML::Node& n = node_;
+    if (n.IsMap() && n[key] && n[key].IsNull()) Fail(key, "has no value");
+    return false;
+  }
   used_->insert(FullKey(key));
   try {
     *value = node_[key].as<T>();
@@ -79,7 +84,7 @@ bool ConfigSection::Read(const std::string& key, T* value) {
 template <typename T>
 bool ConfigSection::ReadInRange(const std::string& key, T* value, T lo, T hi) {
   if (!Read(key, value)) return false;
-  if (*value < lo || *value > hi) {
+  if (!(*value >= lo && *value <= hi)) {  // written so that NaN fails too
     Fail(key, "value " + YAML::Dump(node_[key]) + " out of range [" + YAML::Dump(YAML::Node(lo)) +
                   ", " + YAML::Dump(YAML::Node(hi)) + "]");
   }

@@ -1,0 +1,145 @@
+#include "common/camera_config.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <set>
+
+#include "common/dataset_util.h"
+
+namespace rumi {
+namespace {
+
+const std::string kConfigs = std::string(RUMI_SOURCE_DIR) + "/configs";
+
+TEST(CameraConfig, ReadsAllKeys) {
+  ConfigSection root = LoadConfigString(
+      "camera: {width: 752, height: 480, fx: 458.654, fy: -457.296, cx: 367.215, cy: 248.375,\n"
+      "         k1: -0.28, k2: 0.07, p1: 0.0002, p2: 1.8e-05, k3: 0.01}\n",
+      "c.yaml");
+  ConfigSection cam = root.Child("camera");
+  PinholeCameraOptions o;
+  ReadOptions(cam, &o);
+  EXPECT_EQ(o.width, 752);
+  EXPECT_EQ(o.height, 480);
+  EXPECT_EQ(o.fx, 458.654);
+  EXPECT_EQ(o.fy, -457.296);
+  EXPECT_EQ(o.cx, 367.215);
+  EXPECT_EQ(o.cy, 248.375);
+  EXPECT_EQ(o.k1, -0.28);
+  EXPECT_EQ(o.k2, 0.07);
+  EXPECT_EQ(o.p1, 0.0002);
+  EXPECT_EQ(o.p2, 1.8e-05);
+  EXPECT_EQ(o.k3, 0.01);
+  EXPECT_NO_THROW(root.Finish());
+}
+
+TEST(CameraConfig, Errors) {
+  auto error = [](const std::string& yaml) -> std::string {
+    try {
+      ConfigSection root = LoadConfigString(yaml, "cam.yaml");
+      ConfigSection cam = root.Child("camera");
+      PinholeCameraOptions o;
+      ReadOptions(cam, &o);
+      root.Finish();
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  std::string e = error("camera: {fx: 0}\n");
+  EXPECT_NE(e.find("cam.yaml"), std::string::npos) << e;
+  EXPECT_NE(e.find("focal"), std::string::npos) << e;
+  e = error("camera: {width: 0}\n");
+  EXPECT_NE(e.find("camera.width"), std::string::npos) << e;
+  e = error("camera: {fx: abc}\n");
+  EXPECT_NE(e.find("camera.fx"), std::string::npos) << e;
+  e = error("camera: {fx: 500, k4: 0.1}\n");
+  EXPECT_NE(e.find("camera.k4"), std::string::npos) << e;
+  e = error("camera: {cx: .nan}\n");
+  EXPECT_NE(e.find("principal"), std::string::npos) << e;
+  EXPECT_EQ(error("camera: {fx: 500}\n"), "");
+}
+
+// Every shipped config parses; its camera section is complete and valid; its
+// top-level keys are known ones. (Sections of other parts are checked by
+// their own ReadOptions: they only have to be maps here.)
+TEST(CameraConfig, EveryShippedConfigLoads) {
+  const std::set<std::string> known = {"camera", "log_level", "front", "sampler", "back", "manager", "ipc"};
+  int n = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(kConfigs)) {
+    if (entry.path().extension() != ".yaml") continue;
+    const std::string path = entry.path().string();
+    SCOPED_TRACE(path);
+    ConfigSection root = LoadConfigFile(path);
+    ASSERT_TRUE(root.Has("camera"));
+    ConfigSection cam = root.Child("camera");
+    PinholeCameraOptions o;
+    ReadOptions(cam, &o);
+    for (const char* key : {"width", "height", "fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3"}) {
+      EXPECT_TRUE(cam.Has(key)) << key;  // no silent defaults in shipped files
+    }
+    EXPECT_NO_THROW(cam.Finish());
+    std::string level;
+    ASSERT_TRUE(root.Read("log_level", &level));
+    EXPECT_TRUE(level == "trace" || level == "debug" || level == "info" || level == "warn" ||
+                level == "error" || level == "critical" || level == "off")
+        << level;
+    for (const char* section : {"front", "sampler", "back", "manager", "ipc"}) root.Child(section);
+    // Finish may only complain about sub-keys of the other parts' sections
+    // (left to their own readers), never about a top-level key.
+    try {
+      root.Finish();
+    } catch (const ConfigError& e) {
+      const std::string msg = e.what();
+      for (size_t q = msg.find('\''); q != std::string::npos; q = msg.find('\'', msg.find('\'', q + 1) + 1)) {
+        const size_t end = msg.find('\'', q + 1);
+        ASSERT_NE(end, std::string::npos) << msg;
+        const std::string key = msg.substr(q + 1, end - q - 1);
+        const std::string top = key.substr(0, key.find('.'));
+        EXPECT_TRUE(key.find('.') != std::string::npos && known.count(top) && top != "camera")
+            << "unknown key '" << key << "' in " << path;
+      }
+    }
+    ++n;
+  }
+  EXPECT_GE(n, 8);
+}
+
+TEST(CameraConfig, TumConfigsMatchBuiltInCalibrations) {
+  for (int fr = 1; fr <= 3; ++fr) {
+    ConfigSection root = LoadConfigFile(kConfigs + "/tum_fr" + std::to_string(fr) + ".yaml");
+    ConfigSection cam = root.Child("camera");
+    PinholeCameraOptions o;
+    ReadOptions(cam, &o);
+    const PinholeCameraOptions b = TumCameraOptions(fr);
+    EXPECT_EQ(o.width, b.width);
+    EXPECT_EQ(o.height, b.height);
+    EXPECT_EQ(o.fx, b.fx);
+    EXPECT_EQ(o.fy, b.fy);
+    EXPECT_EQ(o.cx, b.cx);
+    EXPECT_EQ(o.cy, b.cy);
+    EXPECT_EQ(o.k1, b.k1);
+    EXPECT_EQ(o.k2, b.k2);
+    EXPECT_EQ(o.p1, b.p1);
+    EXPECT_EQ(o.p2, b.p2);
+    EXPECT_EQ(o.k3, b.k3);
+  }
+  // ICL-NUIM and KITTI configs hold the published values.
+  PinholeCameraOptions icl, kitti;
+  ConfigSection ri = LoadConfigFile(kConfigs + "/icl_nuim.yaml");
+  ConfigSection ci = ri.Child("camera");
+  ReadOptions(ci, &icl);
+  EXPECT_EQ(icl.fy, IclCameraOptions().fy);
+  EXPECT_EQ(icl.fx, IclCameraOptions().fx);
+  ConfigSection rk = LoadConfigFile(kConfigs + "/kitti.yaml");
+  ConfigSection ck = rk.Child("camera");
+  ReadOptions(ck, &kitti);
+  EXPECT_EQ(kitti.width, 1242);
+  EXPECT_EQ(kitti.height, 375);
+  EXPECT_EQ(kitti.fx, 721.5377);
+  EXPECT_EQ(kitti.cy, 172.854);
+}
+
+}  // namespace
+}  // namespace rumi
