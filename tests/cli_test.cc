@@ -1,0 +1,68 @@
+// End-to-end checks of the `rumi` CLI as a user runs it: exit codes, printed
+// figures and error messages.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace {
+namespace fs = std::filesystem;
+
+struct Result {
+  int code;
+  std::string out;
+};
+
+Result RunRumi(const std::string& args) {
+  const std::string cmd = std::string(std::getenv("RUMI_BIN_DIR")) + "/rumi " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  Result r{-1, ""};
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+const std::string kEvo = std::string(RUMI_SHARED_DATA_DIR) + "/eval-reference/evo/";
+
+TEST(Cli, EvalAteSim3MatchesEvo) {
+  const Result r = RunRumi("eval ate " + kEvo + "freiburg1_xyz-ORB_kf_mono.txt " + kEvo +
+                       "freiburg1_xyz-groundtruth.txt --align sim3 --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("0.0097545818986"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("32"), std::string::npos) << r.out;
+}
+
+TEST(Cli, EvalAteMissingFileIsAClearError) {
+  const Result r = RunRumi("eval ate /nonexistent/est.txt " + kEvo + "freiburg1_xyz-groundtruth.txt");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.out.find("/nonexistent/est.txt"), std::string::npos) << r.out;
+}
+
+TEST(Cli, EvalTablePrintsPaperLayout) {
+  const fs::path dir = fs::temp_directory_path() / ("rumi_cli_test_" + std::to_string(getpid()));
+  fs::create_directories(dir / "drop" / "run_01");
+  std::ofstream(dir / "drop" / "run_01" / "metrics.json")
+      << R"({"sequence":"drop","front_tracking_rate_time":0.31,"front_ate_rmse":null,)"
+      << R"("merged_tracking_rate_time":0.97,"merged_ate_rmse":0.012,"front_saved_frames":50,)"
+      << R"("saved_frames":300,"saved_frames_postculled":90})";
+  const Result r = RunRumi("eval table " + (dir / "drop").string() + " --format md");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("| drop | 97.0 | 0.012 | 90 | 97.0 | 0.012 | 300 | 31.0 | - | 50 |"), std::string::npos)
+      << r.out;
+  const Result bad = RunRumi("eval table " + dir.string());  // no metrics.json directly or in run dirs
+  EXPECT_NE(bad.code, 0);
+  EXPECT_NE(bad.out.find("no metrics.json"), std::string::npos) << bad.out;
+  fs::remove_all(dir);
+}
+
+}  // namespace
