@@ -17,6 +17,14 @@ class Se3 {
   // Quaternion I/O in the two orders used by trajectory files.
   static Se3 FromTumXyzw(const Eigen::Vector3d& t, double qx, double qy, double qz, double qw);
   static Se3 FromWxyz(const Eigen::Vector3d& t, double qw, double qx, double qy, double qz);
+  // Takes q as it is (already unit length, e.g. just deserialised), so that a
+  // binary round trip is bit-exact; the normalising constructor may move 1 ulp.
+  static Se3 FromUnitQuaternion(const Eigen::Quaterniond& q, const Eigen::Vector3d& t) {
+    Se3 T;
+    T.q_ = q;
+    T.t_ = t;
+    return T;
+  }
 
   const Eigen::Quaterniond& rotation() const { return q_; }
   Eigen::Matrix3d R() const { return q_.toRotationMatrix(); }

@@ -1,0 +1,202 @@
+#include "front/sampler.h"
+
+#include <spdlog/spdlog.h>
+
+namespace rumi {
+
+bool SamplerOptions::Check(std::string* why) const {
+  auto fail = [&](const char* m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (inter < 1) return fail("inter must be >= 1");
+  if (len < 0) return fail("len must be >= 0");
+  if (th_s3 < 0) return fail("th_s3 must be >= 0");
+  if (max_s2 < 2) return fail("max_s2 must be >= 2");
+  return true;
+}
+
+void ReadOptions(ConfigSection& s, SamplerOptions* o) {
+  s.ReadInRange("inter", &o->inter, 1, 10000);
+  s.ReadInRange("len", &o->len, 0, 10000);
+  s.ReadInRange("th_s3", &o->th_s3, 0, 100000);
+  s.ReadInRange("max_s2", &o->max_s2, 2, 100000);
+  s.Read("clone_images", &o->clone_images);
+  std::string why;
+  if (!o->Check(&why)) s.Fail("inter", why);
+}
+
+const char* ToString(Sampler::Phase p) {
+  switch (p) {
+    case Sampler::Phase::kIdle: return "idle";
+    case Sampler::Phase::kS1: return "S1";
+    case Sampler::Phase::kS2: return "S2";
+    case Sampler::Phase::kS3: return "S3";
+  }
+  return "?";
+}
+
+Sampler::Sampler(const SamplerOptions& options, const PinholeCameraOptions& camera)
+    : o_(options), camera_(camera) {
+  std::string why;
+  if (!o_.Check(&why)) throw std::invalid_argument("SamplerOptions: " + why);
+}
+
+void Sampler::Take(const SamplerFrame& f, SampleSet set, std::vector<WindowFrame>* into) {
+  WindowFrame w;
+  w.timestamp = f.timestamp;
+  w.image = o_.clone_images ? f.image.clone() : f.image;
+  w.front_state = f.state;
+  w.set = set;
+  w.front_submap_id = f.submap_id;
+  if (into) {
+    into->push_back(std::move(w));
+  } else {
+    s1_.push_back(std::move(w));
+    while (static_cast<int>(s1_.size()) > o_.len) s1_.pop_front();
+  }
+}
+
+void Sampler::ThinS2() {
+  // Keep S2 samples whose loss position is a multiple of the doubled stride;
+  // S3 samples (from an earlier resume in this window) all stay.
+  s2_stride_ *= 2;
+  std::vector<WindowFrame> kept;
+  std::vector<int64_t> kept_pos;
+  size_t j = 0;
+  s2_count_ = 0;
+  for (WindowFrame& f : body_) {
+    if (f.set == SampleSet::kS2) {
+      const int64_t pos = s2_pos_[j++];
+      if (pos % s2_stride_ != 0) continue;
+      kept_pos.push_back(pos);
+      ++s2_count_;
+    }
+    kept.push_back(std::move(f));
+  }
+  body_ = std::move(kept);
+  s2_pos_ = std::move(kept_pos);
+  spdlog::debug("sampler: S2 cap {} reached, stride now {} ({} S2 samples kept)", o_.max_s2, s2_stride_,
+                s2_count_);
+}
+
+void Sampler::Emit(ImageWindow* window) {
+  window->id = next_window_id_++;
+  window->camera = camera_;
+  window->frames.clear();
+  window->frames.reserve(s1_.size() + body_.size());
+  for (WindowFrame& f : s1_) window->frames.push_back(std::move(f));
+  for (WindowFrame& f : body_) window->frames.push_back(std::move(f));
+  s1_.clear();
+  body_.clear();
+  s2_pos_.clear();
+  lost_k_ = 0;
+  s2_stride_ = 1;
+  s2_count_ = 0;
+  int n[4] = {0, 0, 0, 0};
+  for (const WindowFrame& f : window->frames) ++n[static_cast<int>(f.set)];
+  spdlog::debug("sampler: emit window {}: {} frames (S1 {}, S2 {}, S3 {}), {} .. {}", window->id,
+                window->frames.size(), n[1], n[2], n[3],
+                window->frames.empty() ? 0 : window->frames.front().timestamp,
+                window->frames.empty() ? 0 : window->frames.back().timestamp);
+  // The S3 samples of this window seed the next window's S1 ring.
+  for (const WindowFrame& f : window->frames) {
+    if (f.set != SampleSet::kS3) continue;
+    WindowFrame c = f;  // shallow: shares the pixels with the emitted window
+    c.set = SampleSet::kS1;
+    s1_.push_back(std::move(c));
+    while (static_cast<int>(s1_.size()) > o_.len) s1_.pop_front();
+  }
+}
+
+bool Sampler::AddFrame(const SamplerFrame& f, ImageWindow* window) {
+  const bool tracked = f.state == TrackingState::kTracking;
+  bool emitted = false;
+  const char* decision = "skip";
+
+  if (!tracked) {
+    if (phase_ == Phase::kIdle) {
+      decision = "skip (not tracked yet)";
+    } else {
+      if (phase_ == Phase::kS1) {
+        submap_before_loss_ = f.submap_id;
+        spdlog::debug("sampler: t={} tracking lost in submap {}, dense sampling (S2)", f.timestamp,
+                      f.submap_id);
+      } else if (phase_ == Phase::kS3) {
+        spdlog::debug("sampler: t={} lost again during S3, window extends", f.timestamp);
+      }
+      phase_ = Phase::kS2;
+      const int64_t pos = lost_k_++;
+      if (pos % s2_stride_ == 0) {
+        Take(f, SampleSet::kS2, &body_);
+        s2_pos_.push_back(pos);
+        ++s2_count_;
+        decision = "sample S2";
+        if (s2_count_ >= o_.max_s2) ThinS2();
+      } else {
+        decision = "skip (S2 thinned)";
+      }
+    }
+  } else {
+    switch (phase_) {
+      case Phase::kIdle:
+        phase_ = Phase::kS1;
+        sparse_k_ = 0;
+        break;
+      case Phase::kS2:
+        phase_ = Phase::kS3;
+        sparse_k_ = 0;
+        resume_submap_ = f.submap_id;
+        tracked_since_resume_ = 0;
+        spdlog::debug("sampler: t={} tracking resumed in submap {} ({} frames), S3", f.timestamp, f.submap_id,
+                      f.submap_frames);
+        break;
+      default:
+        break;
+    }
+    if (phase_ == Phase::kS3) {
+      ++tracked_since_resume_;
+      if (f.submap_id != resume_submap_) {  // front switched submap again while tracking
+        resume_submap_ = f.submap_id;
+        tracked_since_resume_ = 1;
+      }
+      const int64_t count =
+          f.submap_id == submap_before_loss_ ? tracked_since_resume_ : f.submap_frames;
+      if (count > o_.th_s3) {
+        Emit(window);
+        emitted = true;
+        phase_ = Phase::kS1;
+        spdlog::debug("sampler: t={} submap {} holds {} > th_s3 {} frames: window {} done, back activated",
+                      f.timestamp, f.submap_id, count, o_.th_s3, window->id);
+      }
+    }
+    const bool sample = sparse_k_ % o_.inter == 0;
+    ++sparse_k_;
+    if (sample) {
+      if (phase_ == Phase::kS3) {
+        Take(f, SampleSet::kS3, &body_);
+        decision = "sample S3";
+      } else {
+        Take(f, SampleSet::kS1, nullptr);
+        decision = "sample S1";
+      }
+    }
+  }
+  spdlog::debug("sampler: t={} state={} submap={} n={} phase={} -> {}", f.timestamp, ToString(f.state),
+                f.submap_id, f.submap_frames, ToString(phase_), decision);
+  return emitted;
+}
+
+bool Sampler::Flush(ImageWindow* window) {
+  const bool has_s2 = s2_count_ > 0;
+  if (!has_s2) {
+    spdlog::debug("sampler: end of stream, nothing to flush (phase {})", ToString(phase_));
+    return false;
+  }
+  spdlog::debug("sampler: end of stream in phase {}, flushing pending window", ToString(phase_));
+  Emit(window);
+  phase_ = Phase::kS1;
+  return true;
+}
+
+}  // namespace rumi

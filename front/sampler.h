@@ -1,0 +1,107 @@
+#pragma once
+// Variable-density sampler (RUMI-SLAM, Sec. IV-B, Fig. 4/6): decides, frame by
+// frame, which images the back process should ruminate on.
+//
+//   S1  while tracked: one sample every `inter` tracked frames; the last `len`
+//       are kept in a ring.
+//   S2  while not tracked (lost, re-initialising, coarse): every frame.
+//   S3  after tracking resumes: one sample every `inter` frames until the front
+//       submap holds more than `th_s3` frames ("number of frames in the front
+//       submap": every frame the front assigned to it, not keyframes).
+//   Then S = S1 u S2 u S3 is emitted as one ImageWindow and the back starts.
+//   Nothing is emitted while tracking never fails.
+//
+// Stated policies (docs/ipc.md has the timeline):
+//  - Not-tracked frames before the first tracked frame of the stream are not
+//    a loss (nothing to associate with) and are ignored.
+//  - Frame count for S3: the front's count of the submap it tracks in. When
+//    tracking resumes in the SAME submap as before the loss (relocalisation),
+//    the frames tracked since the resume are counted instead.
+//  - A second loss during S3 extends the same window: the S3 samples so far
+//    stay (labelled S3), dense S2 sampling continues, S3 restarts on resume.
+//  - Long losses: S2 holds at most max_s2 frames. When full, every second S2
+//    sample is dropped and the S2 stride doubles (1, 2, 4, ...), so the window
+//    keeps covering the whole loss at decreasing density with bounded memory.
+//    Positions are counted over all not-tracked frames of the window, so the
+//    kept frames are exactly those whose position is a multiple of the stride.
+//  - Flush() (end of stream) emits the pending window when it holds S2 frames.
+//  - Sparse cadence is continuous: tracked frames are numbered from the start
+//    of tracking (stream start or resume); a frame is sampled when its number
+//    is a multiple of `inter`. After a window is emitted its S3 samples seed
+//    the S1 ring of the next window.
+//
+// Cost per frame: a few comparisons; a sampled image is cloned (clone_images)
+// or kept as a reference-counted shallow copy. No disk, no locks.
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <deque>
+#include <string>
+#include <vector>
+
+#include "common/config.h"
+#include "common/window.h"
+
+namespace rumi {
+
+struct SamplerOptions {
+  int inter = 5;      // sparse stride (frames), S1 and S3
+  int len = 10;       // S1 samples kept before a loss
+  int th_s3 = 8;      // S3 ends when the front submap holds more frames than this
+  int max_s2 = 100;   // cap on S2 samples per window (then thinned, stride doubles)
+  bool clone_images = true;  // false: keep shallow refs (frame source must not reuse buffers)
+  bool Check(std::string* why = nullptr) const;
+};
+// Keys: inter, len, th_s3, max_s2, clone_images.
+void ReadOptions(ConfigSection& s, SamplerOptions* o);
+
+struct SamplerFrame {
+  Timestamp timestamp = 0;
+  cv::Mat image;  // shallow; cloned only when sampled (clone_images)
+  TrackingState state = TrackingState::kTracking;
+  int64_t submap_id = -1;      // current front submap
+  int64_t submap_frames = 0;   // frames in that submap, this one included
+};
+
+class Sampler {
+ public:
+  enum class Phase { kIdle, kS1, kS2, kS3 };  // kIdle: not yet tracked once
+
+  Sampler(const SamplerOptions& options, const PinholeCameraOptions& camera);
+
+  // Feeds one frame. True when a window completed with this frame (the frame
+  // itself then belongs to the next window's cadence, not to *window).
+  bool AddFrame(const SamplerFrame& frame, ImageWindow* window);
+  // End of stream: true when a pending window with S2 frames was emitted.
+  bool Flush(ImageWindow* window);
+
+  Phase phase() const { return phase_; }
+  // Samples held for the pending window (S1 ring + S2 + S3).
+  size_t pending() const { return s1_.size() + body_.size(); }
+  int s2_stride() const { return s2_stride_; }
+  int64_t windows_emitted() const { return next_window_id_; }
+
+ private:
+  void Take(const SamplerFrame& f, SampleSet set, std::vector<WindowFrame>* into);
+  void ThinS2();
+  void Emit(ImageWindow* window);
+
+  SamplerOptions o_;
+  PinholeCameraOptions camera_;
+  Phase phase_ = Phase::kIdle;
+  std::deque<WindowFrame> s1_;     // last `len` sparse samples
+  std::vector<WindowFrame> body_;  // S2 and S3 samples of the pending window, time order
+  std::vector<int64_t> s2_pos_;    // position among lost frames, per S2 entry of body_
+  int64_t sparse_k_ = 0;           // tracked frames since tracking (re)started
+  int64_t lost_k_ = 0;             // not-tracked frames in the pending window
+  int s2_stride_ = 1;
+  int s2_count_ = 0;
+  int64_t submap_before_loss_ = -1;
+  int64_t resume_submap_ = -1;
+  int64_t tracked_since_resume_ = 0;
+  int64_t next_window_id_ = 0;
+};
+
+const char* ToString(Sampler::Phase p);
+
+}  // namespace rumi

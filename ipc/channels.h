@@ -1,0 +1,98 @@
+#pragma once
+// The three rumi channels on top of the shared-memory ring:
+//   windows        front -> back     ImageWindow  (ipc/window_codec)
+//   front_submaps  front -> manager  Submap       (ipc/submap_codec)
+//   back_submaps   back  -> manager  Submap
+// Segment names are rumi_<instance>_<channel>, so instances run side by side.
+#include <memory>
+#include <string>
+
+#include "common/config.h"
+#include "common/submap.h"
+#include "common/window.h"
+#include "ipc/shm_ring.h"
+
+namespace rumi {
+
+struct IpcOptions {
+  std::string instance = "default";  // [A-Za-z0-9_-], at most 32 characters
+  int window_slots = 3;
+  // One slot holds a whole window: ~ (len + max_s2 + S3) grey images. 48 MiB
+  // is ~160 VGA frames. Segments are tmpfs pages: only touched slots use RAM.
+  int64_t window_slot_bytes = 48ll << 20;
+  int submap_slots = 8;
+  int64_t submap_slot_bytes = 16ll << 20;
+  std::string overflow_policy = "drop_newest";  // or "drop_oldest"
+  bool Check(std::string* why = nullptr) const;
+  OverflowPolicy policy() const;
+};
+// Reads keys instance, window_slots, window_slot_bytes, submap_slots,
+// submap_slot_bytes, overflow_policy; throws ConfigError on bad values.
+void ReadOptions(ConfigSection& s, IpcOptions* o);
+
+constexpr const char* kWindowChannel = "windows";
+constexpr const char* kFrontSubmapChannel = "front_submaps";
+constexpr const char* kBackSubmapChannel = "back_submaps";
+const char* SubmapChannel(SubmapSource source);  // kFront / kBack (kMerged is never sent)
+
+class WindowSender {
+ public:
+  explicit WindowSender(const IpcOptions& o);
+  // Serialises w straight into a ring slot; never waits.
+  PushStatus Send(const ImageWindow& w);
+  RingProducer& ring() { return ring_; }
+
+ private:
+  RingProducer ring_;
+};
+
+class WindowReceiver {
+ public:
+  explicit WindowReceiver(const IpcOptions& o);
+  // Deep-copied window. kOk, kEmpty after timeout_s, kNotConnected, kIncompatible.
+  // A record that fails to decode is logged, counted and skipped.
+  PopStatus Receive(ImageWindow* w, double timeout_s = 0.0);
+  // Zero-copy: f(const ImageWindow&) sees images pointing into the slot; they
+  // are valid only during the call.
+  template <typename F>
+  PopStatus ReceiveInPlace(F&& f, double timeout_s = 0.0) {
+    ImageWindow w;
+    const PopStatus st = PeekDecoded(&w, true, timeout_s);
+    if (st == PopStatus::kOk) {
+      f(static_cast<const ImageWindow&>(w));
+      ring_.Release();
+    }
+    return st;
+  }
+  uint64_t decode_errors() const { return decode_errors_; }
+  RingConsumer& ring() { return ring_; }
+
+ private:
+  PopStatus PeekDecoded(ImageWindow* w, bool in_place, double timeout_s);
+  RingConsumer ring_;
+  uint64_t decode_errors_ = 0;
+};
+
+class SubmapSender {
+ public:
+  SubmapSender(const IpcOptions& o, SubmapSource source);
+  PushStatus Send(const Submap& s);
+  RingProducer& ring() { return ring_; }
+
+ private:
+  RingProducer ring_;
+};
+
+class SubmapReceiver {
+ public:
+  SubmapReceiver(const IpcOptions& o, SubmapSource source);
+  PopStatus Receive(Submap* s, double timeout_s = 0.0);
+  uint64_t decode_errors() const { return decode_errors_; }
+  RingConsumer& ring() { return ring_; }
+
+ private:
+  RingConsumer ring_;
+  uint64_t decode_errors_ = 0;
+};
+
+}  // namespace rumi

@@ -1,0 +1,258 @@
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "ipc/envelope.h"
+#include "ipc/submap_codec.h"
+#include "ipc/test_data.h"
+#include "ipc/window_codec.h"
+
+namespace rumi {
+namespace {
+
+using ipc_test::MakeSubmap;
+using ipc_test::MakeWindow;
+
+bool SameBits(double a, double b) { return std::memcmp(&a, &b, sizeof(double)) == 0; }
+
+void ExpectSe3Exact(const Se3& a, const Se3& b) {
+  for (int i = 0; i < 4; ++i) EXPECT_TRUE(SameBits(a.rotation().coeffs()[i], b.rotation().coeffs()[i]));
+  for (int i = 0; i < 3; ++i) EXPECT_TRUE(SameBits(a.translation()[i], b.translation()[i]));
+}
+
+void ExpectMatEqual(const cv::Mat& a, const cv::Mat& b) {
+  EXPECT_EQ(a.rows, b.rows);
+  EXPECT_EQ(a.cols, b.cols);
+  EXPECT_EQ(a.type(), b.type());
+  if (a.empty() || b.empty()) {
+    EXPECT_EQ(a.empty(), b.empty());
+    return;
+  }
+  ASSERT_EQ(a.total() * a.elemSize(), b.total() * b.elemSize());
+  EXPECT_EQ(0, std::memcmp(a.data, b.data, a.total() * a.elemSize()));
+}
+
+void ExpectSubmapEqual(const Submap& a, const Submap& b) {
+  EXPECT_EQ(a.id, b.id);
+  EXPECT_EQ(a.source, b.source);
+  EXPECT_EQ(a.camera.width, b.camera.width);
+  EXPECT_EQ(a.camera.height, b.camera.height);
+  EXPECT_TRUE(SameBits(a.camera.fx, b.camera.fx));
+  EXPECT_TRUE(SameBits(a.camera.fy, b.camera.fy));
+  EXPECT_TRUE(SameBits(a.camera.cx, b.camera.cx));
+  EXPECT_TRUE(SameBits(a.camera.cy, b.camera.cy));
+  ASSERT_EQ(a.keyframes.size(), b.keyframes.size());
+  for (size_t i = 0; i < a.keyframes.size(); ++i) {
+    const Keyframe &x = a.keyframes[i], &y = b.keyframes[i];
+    EXPECT_EQ(x.id, y.id);
+    EXPECT_EQ(x.timestamp, y.timestamp);
+    ExpectSe3Exact(x.T_cw, y.T_cw);
+    ASSERT_EQ(x.keypoints.size(), y.keypoints.size());
+    for (size_t k = 0; k < x.keypoints.size(); ++k) EXPECT_EQ(x.keypoints[k], y.keypoints[k]);
+    EXPECT_EQ(x.octaves, y.octaves);
+    EXPECT_EQ(x.point_ids, y.point_ids);
+    ExpectMatEqual(x.descriptors, y.descriptors);
+  }
+  ASSERT_EQ(a.points.size(), b.points.size());
+  for (size_t i = 0; i < a.points.size(); ++i) {
+    const MapPoint &x = a.points[i], &y = b.points[i];
+    EXPECT_EQ(x.id, y.id);
+    for (int d = 0; d < 3; ++d) EXPECT_TRUE(SameBits(x.position[d], y.position[d]));
+    ExpectMatEqual(x.descriptor, y.descriptor);
+    ASSERT_EQ(x.observations.size(), y.observations.size());
+    for (size_t o = 0; o < x.observations.size(); ++o) {
+      EXPECT_EQ(x.observations[o].keyframe_id, y.observations[o].keyframe_id);
+      EXPECT_EQ(x.observations[o].keypoint_index, y.observations[o].keypoint_index);
+    }
+  }
+  ASSERT_EQ(a.frames.size(), b.frames.size());
+  for (size_t i = 0; i < a.frames.size(); ++i) {
+    EXPECT_EQ(a.frames[i].timestamp, b.frames[i].timestamp);
+    EXPECT_EQ(a.frames[i].state, b.frames[i].state);
+    EXPECT_EQ(a.frames[i].submap_id, b.frames[i].submap_id);
+    ExpectSe3Exact(a.frames[i].T_wc, b.frames[i].T_wc);
+  }
+}
+
+void ExpectWindowEqual(const ImageWindow& a, const ImageWindow& b) {
+  EXPECT_EQ(a.id, b.id);
+  const auto &c = a.camera, &d = b.camera;
+  EXPECT_EQ(c.width, d.width);
+  EXPECT_EQ(c.height, d.height);
+  for (auto [x, y] : {std::pair{c.fx, d.fx}, {c.fy, d.fy}, {c.cx, d.cx}, {c.cy, d.cy}, {c.k1, d.k1},
+                      {c.k2, d.k2}, {c.p1, d.p1}, {c.p2, d.p2}, {c.k3, d.k3}}) {
+    EXPECT_TRUE(SameBits(x, y));
+  }
+  ASSERT_EQ(a.frames.size(), b.frames.size());
+  for (size_t i = 0; i < a.frames.size(); ++i) {
+    EXPECT_EQ(a.frames[i].timestamp, b.frames[i].timestamp);
+    EXPECT_EQ(a.frames[i].front_state, b.frames[i].front_state);
+    EXPECT_EQ(a.frames[i].set, b.frames[i].set);
+    EXPECT_EQ(a.frames[i].front_submap_id, b.frames[i].front_submap_id);
+    ExpectMatEqual(a.frames[i].image, b.frames[i].image);
+  }
+}
+
+TEST(SubmapCodec, RoundTripIsExact) {
+  for (int64_t id : {0, 1, 7}) {
+    const Submap s = MakeSubmap(id);
+    const auto bytes = EncodeSubmap(s);
+    EXPECT_EQ(bytes.size(), EncodedSubmapSize(s));
+    Submap out;
+    std::string err;
+    ASSERT_TRUE(DecodeSubmap(bytes.data(), bytes.size(), &out, &err)) << err;
+    ExpectSubmapEqual(s, out);
+    // Re-encoding the decoded submap gives the same bytes.
+    EXPECT_EQ(EncodeSubmap(out), bytes);
+  }
+}
+
+TEST(SubmapCodec, EmptySubmapAndEmptyMatsKeepType) {
+  Submap s;
+  Keyframe k;
+  k.descriptors = cv::Mat(0, 0, CV_32FC1);
+  s.keyframes.push_back(k);
+  const auto bytes = EncodeSubmap(s);
+  Submap out;
+  ASSERT_TRUE(DecodeSubmap(bytes.data(), bytes.size(), &out));
+  ASSERT_EQ(out.keyframes.size(), 1u);
+  EXPECT_TRUE(out.keyframes[0].descriptors.empty());
+  EXPECT_EQ(out.keyframes[0].descriptors.type(), CV_32FC1);
+  EXPECT_EQ(out.id, -1);
+}
+
+TEST(SubmapCodec, EncodeIntoRefusesSmallBuffer) {
+  const Submap s = MakeSubmap(3);
+  std::vector<uint8_t> buf(EncodedSubmapSize(s) - 1);
+  EXPECT_EQ(EncodeSubmapInto(s, buf.data(), buf.size()), 0u);
+}
+
+TEST(SubmapCodec, ClearErrorsOnForeignTruncatedAndNewerInput) {
+  const auto bytes = EncodeSubmap(MakeSubmap(2));
+  Submap out;
+  std::string err;
+  EXPECT_FALSE(DecodeSubmap(bytes.data(), 10, &out, &err));
+  EXPECT_NE(err.find("truncated"), std::string::npos) << err;
+  EXPECT_FALSE(DecodeSubmap(bytes.data(), bytes.size() - 8, &out, &err));
+  EXPECT_NE(err.find("truncated"), std::string::npos) << err;
+  const std::string junk = "P5\n640 480\n255\n................................................";
+  EXPECT_FALSE(DecodeSubmap(reinterpret_cast<const uint8_t*>(junk.data()), junk.size(), &out, &err));
+  EXPECT_NE(err.find("not rumi data"), std::string::npos) << err;
+  // A window is not a submap.
+  const auto win = EncodeWindow(MakeWindow(1, 2));
+  EXPECT_FALSE(DecodeSubmap(win.data(), win.size(), &out, &err));
+  EXPECT_NE(err.find("IWIN"), std::string::npos) << err;
+  // A newer format version is refused by number.
+  auto newer = bytes;
+  newer[8] = 9;
+  EXPECT_FALSE(DecodeSubmap(newer.data(), newer.size(), &out, &err));
+  EXPECT_NE(err.find("format version 9"), std::string::npos) << err;
+  EXPECT_FALSE(DecodeSubmap(nullptr, 0, &out, &err));
+}
+
+TEST(SubmapCodec, FuzzTruncationsAndBitFlipsNeverCrash) {
+  const Submap s = MakeSubmap(5, 4, 20, 10);
+  const auto bytes = EncodeSubmap(s);
+  std::mt19937 rng(42);
+  Submap out;
+  std::string err;
+  // Every truncation is rejected.
+  for (size_t n = 0; n < bytes.size(); n += 1 + n / 50) {
+    EXPECT_FALSE(DecodeSubmap(bytes.data(), n, &out, &err)) << n;
+  }
+  // Bit flips anywhere: caught by checksum or layout checks.
+  int accepted = 0;
+  for (int t = 0; t < 2000; ++t) {
+    auto b = bytes;
+    const int flips = 1 + t % 3;
+    for (int f = 0; f < flips; ++f) b[rng() % b.size()] ^= static_cast<uint8_t>(1u << (rng() % 8));
+    accepted += DecodeSubmap(b.data(), b.size(), &out, &err);
+  }
+  EXPECT_EQ(accepted, 0);
+}
+
+TEST(SubmapCodec, FuzzWithRepairedChecksumNeverCrashes) {
+  const auto bytes = EncodeSubmap(MakeSubmap(9, 3, 10, 5));
+  std::mt19937 rng(7);
+  Submap out;
+  std::string err;
+  int decoded = 0, rejected = 0;
+  for (int t = 0; t < 3000; ++t) {
+    auto b = bytes;
+    for (int f = 0; f < 1 + t % 4; ++f) {
+      b[kEnvelopeHeaderBytes + rng() % (b.size() - kEnvelopeHeaderBytes)] = static_cast<uint8_t>(rng());
+    }
+    try {
+      FinishEnvelope(b.data(), b.size());
+    } catch (const CodecError&) {
+      ++rejected;  // section table itself broken
+      EXPECT_FALSE(DecodeSubmap(b.data(), b.size(), &out, &err));
+      continue;
+    }
+    if (DecodeSubmap(b.data(), b.size(), &out, &err)) {
+      ++decoded;
+    } else {
+      ++rejected;
+      EXPECT_FALSE(err.empty());
+    }
+  }
+  EXPECT_GT(rejected, 0);
+  RecordProperty("decoded_after_repair", decoded);
+}
+
+TEST(WindowCodec, RoundTripCopyAndInPlace) {
+  ImageWindow w = MakeWindow(4, 5, 33, 17);  // odd sizes exercise padding
+  w.frames[2].image = cv::Mat();               // a frame without pixels
+  cv::Mat big(40, 60, CV_8UC1, cv::Scalar(9));
+  w.frames[3].image = big(cv::Rect(5, 5, 20, 10));  // non-continuous ROI
+  w.frames[4].image = cv::Mat(3, 4, CV_16UC3, cv::Scalar(1000, 2000, 3000));
+  const auto bytes = EncodeWindow(w);
+  EXPECT_EQ(bytes.size(), EncodedWindowSize(w));
+  ImageWindow copy, view;
+  std::string err;
+  ASSERT_TRUE(DecodeWindow(bytes.data(), bytes.size(), &copy, false, &err)) << err;
+  ASSERT_TRUE(DecodeWindow(bytes.data(), bytes.size(), &view, true, &err)) << err;
+  ExpectWindowEqual(w, copy);
+  ExpectWindowEqual(w, view);
+  // In place really means no copy: pixels live inside the record, 64-aligned.
+  const uint8_t* p = view.frames[0].image.data;
+  EXPECT_GE(p, bytes.data());
+  EXPECT_LT(p, bytes.data() + bytes.size());
+  EXPECT_EQ((p - bytes.data()) % 64, 0);
+  EXPECT_FALSE(copy.frames[0].image.data >= bytes.data() && copy.frames[0].image.data < bytes.data() + bytes.size());
+}
+
+TEST(WindowCodec, FuzzTruncationsAndFlipsNeverCrash) {
+  const auto bytes = EncodeWindow(MakeWindow(11, 3, 16, 8));
+  std::mt19937 rng(3);
+  ImageWindow out;
+  std::string err;
+  for (size_t n = 0; n < bytes.size(); ++n) EXPECT_FALSE(DecodeWindow(bytes.data(), n, &out, true, &err));
+  int meta_accepted = 0;
+  for (int t = 0; t < 3000; ++t) {
+    auto b = bytes;
+    const size_t at = rng() % b.size();
+    b[at] = static_cast<uint8_t>(rng());
+    if (t % 2) {
+      try {
+        FinishEnvelope(b.data(), b.size());
+      } catch (const CodecError&) {
+      }
+    }
+    if (DecodeWindow(b.data(), b.size(), &out, t % 3 == 0, &err) && t % 2 == 0 && b != bytes) {
+      ++meta_accepted;  // only pixel flips may pass unchecked
+    }
+  }
+  // Without checksum repair, only changes in pixel bytes (unchecked) pass.
+  ImageWindow ref;
+  ASSERT_TRUE(DecodeWindow(bytes.data(), bytes.size(), &ref, false, &err));
+  RecordProperty("pixel_flips_accepted", meta_accepted);
+  // A flipped bit in the metadata is caught.
+  auto b = bytes;
+  b[kEnvelopeHeaderBytes + 20] ^= 1;
+  EXPECT_FALSE(DecodeWindow(b.data(), b.size(), &out, false, &err));
+  EXPECT_NE(err.find("checksum"), std::string::npos) << err;
+}
+
+}  // namespace
+}  // namespace rumi

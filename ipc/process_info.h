@@ -1,0 +1,20 @@
+#pragma once
+// Process identity that survives pid reuse: (pid, start time since boot).
+#include <cstdint>
+#include <sys/types.h>
+
+namespace rumi {
+
+struct ProcessId {
+  uint64_t pid = 0;
+  uint64_t start_ticks = 0;  // /proc/<pid>/stat field 22; 0 when unknown
+};
+
+ProcessId SelfProcessId();
+// Start time of pid in clock ticks since boot, 0 when it does not exist.
+uint64_t ProcessStartTicks(pid_t pid);
+// True when the process exists and (if known) was started at start_ticks, i.e.
+// it is the same process and not a later one that got the same pid.
+bool ProcessAlive(const ProcessId& id);
+
+}  // namespace rumi

@@ -1,0 +1,149 @@
+#include "ipc/window_codec.h"
+
+#include "ipc/envelope.h"
+
+namespace rumi {
+namespace {
+
+constexpr uint32_t kKind = FourCc("IWIN");
+constexpr uint32_t kHead = FourCc("HEAD");
+constexpr uint32_t kFrames = FourCc("FRMS");
+constexpr uint32_t kPixels = FourCc("PIXL");
+constexpr size_t kImageAlign = 64;
+
+template <typename W>
+void EncodeBody(W& w, const ImageWindow& win) {
+  BeginEnvelope(w, kKind, kWindowFormatVersion);
+  size_t at = BeginSection(w, kHead);
+  w.template Put<int64_t>(win.id);
+  const PinholeCameraOptions& c = win.camera;
+  w.template Put<int32_t>(c.width);
+  w.template Put<int32_t>(c.height);
+  for (double v : {c.fx, c.fy, c.cx, c.cy, c.k1, c.k2, c.p1, c.p2, c.k3}) w.template Put<double>(v);
+  w.template Put<uint64_t>(win.frames.size());
+  EndSection(w, at);
+
+  // Metadata table: per frame, where its pixels start in the PIXL section.
+  at = BeginSection(w, kFrames);
+  uint64_t offset = 0;
+  for (const WindowFrame& f : win.frames) {
+    w.template Put<int64_t>(f.timestamp);
+    w.template Put<int64_t>(f.front_submap_id);
+    w.template Put<uint8_t>(static_cast<uint8_t>(f.front_state));
+    w.template Put<uint8_t>(static_cast<uint8_t>(f.set));
+    w.template Put<uint16_t>(0);
+    w.template Put<int32_t>(f.image.rows);
+    w.template Put<int32_t>(f.image.cols);
+    w.template Put<int32_t>(f.image.empty() ? CV_8UC1 : f.image.type());
+    const uint64_t bytes = f.image.empty() ? 0 : f.image.total() * f.image.elemSize();
+    w.template Put<uint64_t>(offset);
+    w.template Put<uint64_t>(bytes);
+    offset = (offset + bytes + kImageAlign - 1) / kImageAlign * kImageAlign;
+  }
+  EndSection(w, at);
+
+  at = BeginSection(w, kPixels, kSectionUnchecked);
+  w.Align(kImageAlign);  // PIXL payload offsets are relative to this point
+  for (const WindowFrame& f : win.frames) {
+    if (f.image.empty()) continue;
+    const size_t row_bytes = static_cast<size_t>(f.image.cols) * f.image.elemSize();
+    if (f.image.isContinuous()) {
+      w.PutBytes(f.image.data, row_bytes * f.image.rows);
+    } else {
+      for (int r = 0; r < f.image.rows; ++r) w.PutBytes(f.image.ptr(r), row_bytes);
+    }
+    w.Align(kImageAlign);
+  }
+  EndSection(w, at);
+}
+
+}  // namespace
+
+size_t EncodedWindowSize(const ImageWindow& w) {
+  SizeCounter c;
+  EncodeBody(c, w);
+  return c.size();
+}
+
+size_t EncodeWindowInto(const ImageWindow& w, uint8_t* out, size_t capacity) {
+  const size_t n = EncodedWindowSize(w);
+  if (n > capacity) return 0;
+  BufferWriter bw(out, n);
+  EncodeBody(bw, w);
+  FinishEnvelope(out, n);
+  return n;
+}
+
+std::vector<uint8_t> EncodeWindow(const ImageWindow& w) {
+  std::vector<uint8_t> out(EncodedWindowSize(w));
+  EncodeWindowInto(w, out.data(), out.size());
+  return out;
+}
+
+bool DecodeWindow(const uint8_t* data, size_t size, ImageWindow* out, bool in_place,
+                  std::string* error) {
+  const std::string what = "image window record";
+  try {
+    const auto sections = ParseEnvelope(data, size, kKind, kWindowFormatVersion, what);
+    ImageWindow win;
+    uint64_t n = 0;
+    {
+      const Section& sec = FindSection(sections, kHead, what);
+      BufferReader r(sec.data, sec.size, what + " HEAD");
+      win.id = r.Get<int64_t>();
+      PinholeCameraOptions& c = win.camera;
+      c.width = r.Get<int32_t>();
+      c.height = r.Get<int32_t>();
+      for (double* v : {&c.fx, &c.fy, &c.cx, &c.cy, &c.k1, &c.k2, &c.p1, &c.p2, &c.k3}) *v = r.Get<double>();
+      n = r.Get<uint64_t>();
+      if (r.remaining() != 0) r.Fail("unread bytes");
+    }
+    const Section& meta = FindSection(sections, kFrames, what);
+    const Section& pix = FindSection(sections, kPixels, what);
+    BufferReader r(meta.data, meta.size, what + " FRMS");
+    constexpr size_t kRow = 48;
+    if (n != meta.size / kRow || meta.size % kRow != 0) {
+      r.Fail("frame table of " + std::to_string(meta.size) + " bytes does not hold " + std::to_string(n) + " frames");
+    }
+    // Pixel offsets are relative to the first 64-aligned byte of the PIXL payload.
+    const size_t lead = (kImageAlign - (reinterpret_cast<uintptr_t>(pix.data) - reinterpret_cast<uintptr_t>(data)) % kImageAlign) % kImageAlign;
+    if (lead > pix.size) r.Fail("pixel section truncated");
+    const uint8_t* pixels = pix.data + lead;
+    const size_t pixel_bytes = pix.size - lead;
+    win.frames.resize(n);
+    for (WindowFrame& f : win.frames) {
+      f.timestamp = r.Get<int64_t>();
+      f.front_submap_id = r.Get<int64_t>();
+      const uint8_t st = r.Get<uint8_t>();
+      const uint8_t set = r.Get<uint8_t>();
+      r.Get<uint16_t>();
+      if (st > static_cast<uint8_t>(TrackingState::kCoarse)) r.Fail("unknown tracking state " + std::to_string(st));
+      if (set < 1 || set > 3) r.Fail("unknown sample set " + std::to_string(set));
+      f.front_state = static_cast<TrackingState>(st);
+      f.set = static_cast<SampleSet>(set);
+      const int32_t rows = r.Get<int32_t>(), cols = r.Get<int32_t>(), type = r.Get<int32_t>();
+      const uint64_t offset = r.Get<uint64_t>(), bytes = r.Get<uint64_t>();
+      if (rows < 0 || cols < 0 || type < 0 || CV_MAT_DEPTH(type) > CV_16F ||
+          type != CV_MAKETYPE(CV_MAT_DEPTH(type), CV_MAT_CN(type)) || CV_MAT_CN(type) > 4) {
+        r.Fail("bad image geometry");
+      }
+      if (static_cast<uint64_t>(rows) * static_cast<uint64_t>(cols) * CV_ELEM_SIZE(type) != bytes) {
+        r.Fail("image byte count disagrees with its size");
+      }
+      if (offset > pixel_bytes || bytes > pixel_bytes - offset) r.Fail("image pixels out of range");
+      if (bytes == 0) {
+        f.image = cv::Mat();
+        continue;
+      }
+      cv::Mat view(rows, cols, type, const_cast<uint8_t*>(pixels + offset));
+      f.image = in_place ? view : view.clone();
+    }
+    *out = std::move(win);
+    return true;
+  } catch (const CodecError& e) {
+    if (error) *error = e.what();
+    return false;
+  }
+}
+
+}  // namespace rumi
