@@ -1,0 +1,23 @@
+#pragma once
+// Small Ceres helpers shared by the manager's optimisers.
+#include <ceres/ceres.h>
+
+#include <memory>
+#include <string>
+
+namespace rumi {
+
+// Robust loss by name ("huber" / "cauchy") with a scale in pixels.
+inline ceres::LossFunction* MakeRobustLoss(const std::string& name, double scale) {
+  if (name == "cauchy") return new ceres::CauchyLoss(scale);
+  return new ceres::HuberLoss(scale);
+}
+
+// Pinhole projection for Ceres functors.
+template <typename T>
+inline void PinholeProject(double fx, double fy, double cx, double cy, const T* p, T* uv) {
+  uv[0] = T(fx) * p[0] / p[2] + T(cx);
+  uv[1] = T(fy) * p[1] / p[2] + T(cy);
+}
+
+}  // namespace rumi

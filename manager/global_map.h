@@ -1,0 +1,77 @@
+#pragma once
+// The manager's global map: every submap in its own frame plus a Sim(3) from
+// that frame into the global frame (design.md), a union-find of connected
+// components (submaps merged directly or through a chain: front A <-> back
+// <-> front B share one frame although A and B share no image), and the
+// fused duplicate points. Merging changes Sim(3)s and welded poses only.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "common/geometry.h"
+#include "common/submap.h"
+
+namespace rumi {
+
+struct SubmapKey {
+  SubmapSource source = SubmapSource::kFront;
+  int64_t id = -1;
+  bool operator==(const SubmapKey& o) const { return source == o.source && id == o.id; }
+  bool operator<(const SubmapKey& o) const { return source != o.source ? source < o.source : id < o.id; }
+};
+std::string ToString(const SubmapKey& k);  // "front#3"
+
+// Point `dup_point` of submap `dup` is the same 3D point as `kept_point` of
+// `kept` (a back point fused with its front duplicate).
+struct FusedPoint {
+  int dup = -1;
+  int64_t dup_point = -1;
+  int kept = -1;
+  int64_t kept_point = -1;
+};
+
+class GlobalMap {
+ public:
+  struct Entry {
+    Submap submap;
+    Sim3 S_gl;  // submap (local) frame -> global frame
+  };
+
+  // Adds a submap as a component of its own with S_gl = identity. Returns its
+  // index, or -1 (and why) when a submap with the same key is present.
+  int AddSubmap(Submap s, std::string* why = nullptr);
+  int Find(const SubmapKey& key) const;  // -1 when absent
+
+  size_t size() const { return entries_.size(); }
+  const Entry& entry(int i) const { return entries_[i]; }
+  Entry& entry(int i) { return entries_[i]; }
+  const Submap& submap(int i) const { return entries_[i].submap; }
+  Submap& submap(int i) { return entries_[i].submap; }
+  const Sim3& ToGlobal(int i) const { return entries_[i].S_gl; }
+  SubmapKey Key(int i) const { return {entries_[i].submap.source, entries_[i].submap.id}; }
+
+  // Union-find over submaps.
+  int Component(int i) const;
+  bool Connected(int i, int j) const { return Component(i) == Component(j); }
+  std::vector<int> Members(int component) const;
+  // Applies S (old global -> new global) to every submap of i's component.
+  void MoveComponent(int i, const Sim3& S);
+  void Union(int i, int j);
+  // Component with the most keyframes (-1 when empty).
+  int LargestComponent() const;
+  int NumKeyframes(int component) const;
+
+  std::vector<FusedPoint>& fused() { return fused_; }
+  const std::vector<FusedPoint>& fused() const { return fused_; }
+
+  // Restores raw state (used by the map file loader).
+  void SetParent(int i, int parent) { parent_[i] = parent; }
+  int RawParent(int i) const { return parent_[i]; }
+
+ private:
+  std::vector<Entry> entries_;
+  mutable std::vector<int> parent_;
+  std::vector<FusedPoint> fused_;
+};
+
+}  // namespace rumi

@@ -1,0 +1,56 @@
+#pragma once
+// Options of the manager's merging pipeline (YAML section `manager:`).
+#include <cstdint>
+#include <string>
+
+#include "common/config.h"
+
+namespace rumi {
+
+struct ManagerOptions {
+  // Pairing: a back and a front keyframe are the same image when their
+  // timestamps differ by strictly less than this (1e-4 s).
+  int64_t pairing_max_dt_ns = 100000;
+  // F^search: first and last n keyframes of each back submap (plus the frames
+  // the front failed on). 0 = every back keyframe.
+  int search_n = 10;
+  // M_com: keypoints of paired keyframes within this radius (undistorted px).
+  double match_radius_px = 3.0;
+  // A merge needs at least this many keyframe pairs and common points.
+  int min_keyframe_pairs = 1;
+  int min_common_points = 20;
+  // ... and an inlier ratio strictly above this.
+  double min_inlier_ratio = 0.1;
+  // RANSAC Sim(3) over 3D point correspondences.
+  int ransac_iterations = 300;
+  double ransac_threshold_ratio = 0.05;  // inlier distance / median scene radius
+  uint32_t ransac_seed = 42;
+  // Robust loss of the Sim(3) refinement and the welding BA.
+  std::string robust_loss = "huber";  // "huber" or "cauchy"
+  double robust_loss_scale_px = 2.0;
+  // After a first solve, residuals above this are dropped and the solve repeated.
+  double outlier_threshold_px = 6.0;
+  int refine_max_iterations = 30;
+  // Formula 8 observations per matched point and side (evenly spread over its
+  // keyframes): enough for conditioning, bounded cost.
+  int refine_max_obs_per_point = 4;
+  // Welding window: matched front keyframes + keyframes sharing at least this
+  // many map points with one of them.
+  int welding_min_covisible = 15;
+  // At most this many window keyframes: the seeds, then the most covisible.
+  int welding_max_keyframes = 30;
+  int ba_max_iterations = 10;
+  bool welding_ba = true;
+  // Post-culling (ORB-SLAM rule): a keyframe is redundant when at least
+  // culling_redundant_ratio of its map points are seen by at least
+  // culling_min_observers other keyframes at the same or a finer octave.
+  double culling_redundant_ratio = 0.9;
+  int culling_min_observers = 3;
+
+  bool Check(std::string* why = nullptr) const;
+};
+
+// Reads the keys of the `manager:` section (pass root.Child("manager")).
+void ReadOptions(ConfigSection& s, ManagerOptions* o);
+
+}  // namespace rumi

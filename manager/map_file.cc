@@ -1,0 +1,216 @@
+#include "manager/map_file.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+
+#include "ipc/byte_io.h"
+#include "ipc/submap_codec.h"
+
+namespace rumi {
+namespace {
+
+constexpr char kMagic[8] = {'R', 'U', 'M', 'I', 'G', 'M', 'A', 'P'};
+
+class IpcSubmapSerializer : public SubmapSerializer {
+ public:
+  std::string Name() const override { return "rumi-submap-v" + std::to_string(kSubmapFormatVersion); }
+  std::vector<uint8_t> Encode(const Submap& s) const override { return EncodeSubmap(s); }
+  bool Decode(const uint8_t* data, size_t size, Submap* s, std::string* why) const override {
+    return DecodeSubmap(data, size, s, why);
+  }
+};
+
+class Bytes {
+ public:
+  template <typename T>
+  void Put(const T& v) {
+    const auto* p = reinterpret_cast<const uint8_t*>(&v);
+    b_.insert(b_.end(), p, p + sizeof(T));
+  }
+  void PutBytes(const void* p, size_t n) {
+    const auto* c = static_cast<const uint8_t*>(p);
+    b_.insert(b_.end(), c, c + n);
+  }
+  std::vector<uint8_t>& data() { return b_; }
+
+ private:
+  std::vector<uint8_t> b_;
+};
+
+std::string Errno(const std::string& what, const std::string& path) {
+  return what + " '" + path + "': " + std::strerror(errno);
+}
+
+bool WriteAll(int fd, const uint8_t* p, size_t n) {
+  while (n > 0) {
+    const ssize_t w = ::write(fd, p, n);
+    if (w < 0) {
+      if (errno == EINTR) continue;
+      return false;
+    }
+    p += w;
+    n -= size_t(w);
+  }
+  return true;
+}
+
+std::string DirName(const std::string& path) {
+  const size_t s = path.find_last_of('/');
+  if (s == std::string::npos) return ".";
+  return s == 0 ? "/" : path.substr(0, s);
+}
+
+}  // namespace
+
+const SubmapSerializer& DefaultSubmapSerializer() {
+  static const IpcSubmapSerializer s;
+  return s;
+}
+
+bool SaveGlobalMap(const GlobalMap& map, const std::string& path, std::string* why,
+                   const SubmapSerializer& serializer) {
+  Bytes body;
+  body.Put<uint64_t>(map.size());
+  for (size_t i = 0; i < map.size(); ++i) {
+    const Sim3& S = map.ToGlobal(int(i));
+    const double v[8] = {S.scale(),           S.rotation().x(),    S.rotation().y(),    S.rotation().z(),
+                         S.rotation().w(),    S.translation().x(), S.translation().y(), S.translation().z()};
+    body.PutBytes(v, sizeof(v));
+    body.Put<int64_t>(map.RawParent(int(i)));
+    const std::vector<uint8_t> rec = serializer.Encode(map.submap(int(i)));
+    body.Put<uint64_t>(rec.size());
+    body.PutBytes(rec.data(), rec.size());
+  }
+  body.Put<uint64_t>(map.fused().size());
+  for (const FusedPoint& f : map.fused()) {
+    body.Put<int32_t>(f.dup);
+    body.Put<int32_t>(f.kept);
+    body.Put<int64_t>(f.dup_point);
+    body.Put<int64_t>(f.kept_point);
+  }
+  Bytes file;
+  file.PutBytes(kMagic, sizeof(kMagic));
+  file.Put<uint32_t>(kGlobalMapFileVersion);
+  file.Put<uint32_t>(0);
+  const std::string name = serializer.Name();
+  file.Put<uint64_t>(name.size());
+  file.PutBytes(name.data(), name.size());
+  file.Put<uint64_t>(body.data().size());
+  file.Put<uint64_t>(Checksum64(body.data().data(), body.data().size()));
+  file.PutBytes(body.data().data(), body.data().size());
+
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) {
+    if (why) *why = Errno("cannot create", tmp);
+    return false;
+  }
+  if (!WriteAll(fd, file.data().data(), file.data().size()) || ::fsync(fd) != 0) {
+    if (why) *why = Errno("cannot write", tmp);
+    ::close(fd);
+    ::unlink(tmp.c_str());
+    return false;
+  }
+  ::close(fd);
+  if (::rename(tmp.c_str(), path.c_str()) != 0) {
+    if (why) *why = Errno("cannot rename onto", path);
+    ::unlink(tmp.c_str());
+    return false;
+  }
+  // The rename itself must reach the disk.
+  const int dfd = ::open(DirName(path).c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dfd >= 0) {
+    ::fsync(dfd);
+    ::close(dfd);
+  }
+  return true;
+}
+
+bool LoadGlobalMap(const std::string& path, GlobalMap* map, std::string* why,
+                   const SubmapSerializer& serializer) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    if (why) *why = Errno("cannot open global map file", path);
+    return false;
+  }
+  const std::vector<uint8_t> data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  try {
+    BufferReader r(data.data(), data.size(), "global map file '" + path + "'");
+    if (data.size() < sizeof(kMagic) || std::memcmp(data.data(), kMagic, sizeof(kMagic)) != 0)
+      r.Fail("not a rumi global map (bad magic)");
+    r.Take(sizeof(kMagic));
+    const uint32_t version = r.Get<uint32_t>();
+    if (version != kGlobalMapFileVersion)
+      r.Fail("unsupported version " + std::to_string(version) + " (expected " +
+             std::to_string(kGlobalMapFileVersion) + ")");
+    r.Get<uint32_t>();
+    const uint64_t name_len = r.GetCount(1, "serializer name");
+    const std::string name(reinterpret_cast<const char*>(r.Take(name_len)), name_len);
+    if (name != serializer.Name())
+      r.Fail("written with submap format '" + name + "', this build reads '" + serializer.Name() + "'");
+    const uint64_t body_size = r.Get<uint64_t>();
+    const uint64_t checksum = r.Get<uint64_t>();
+    if (body_size != r.remaining())
+      r.Fail("body is " + std::to_string(r.remaining()) + " bytes, header says " + std::to_string(body_size) +
+             " (truncated or appended to)");
+    const uint8_t* body = r.Take(body_size);
+    if (Checksum64(body, body_size) != checksum) r.Fail("checksum mismatch (corrupt file)");
+
+    BufferReader b(body, body_size, "global map file '" + path + "'");
+    GlobalMap loaded;
+    const uint64_t n = b.GetCount(80, "submap");
+    std::vector<int64_t> parents;
+    std::vector<Sim3> sims;
+    for (uint64_t i = 0; i < n; ++i) {
+      double v[8];
+      for (double& x : v) x = b.Get<double>();
+      const Eigen::Quaterniond q(v[4], v[1], v[2], v[3]);
+      if (!(v[0] > 0) || !std::isfinite(v[0]) || !(std::abs(q.norm() - 1.0) < 1e-6))
+        b.Fail("submap " + std::to_string(i) + ": invalid Sim(3)");
+      sims.emplace_back(v[0], q, Eigen::Vector3d(v[5], v[6], v[7]));
+      parents.push_back(b.Get<int64_t>());
+      const uint64_t size = b.GetCount(1, "submap record");
+      const uint8_t* rec = b.Take(size);
+      Submap s;
+      std::string err;
+      if (!serializer.Decode(rec, size, &s, &err)) b.Fail("submap " + std::to_string(i) + ": " + err);
+      if (loaded.AddSubmap(std::move(s), &err) < 0) b.Fail(err);
+    }
+    for (uint64_t i = 0; i < n; ++i) {
+      if (parents[i] < 0 || uint64_t(parents[i]) >= n) b.Fail("submap " + std::to_string(i) + ": bad parent");
+      loaded.entry(int(i)).S_gl = sims[i];
+      loaded.SetParent(int(i), int(parents[i]));
+    }
+    for (uint64_t i = 0; i < n; ++i) {  // parent links must reach a root
+      int64_t c = int64_t(i);
+      for (uint64_t steps = 0; parents[c] != c; ++steps) {
+        if (steps > n) b.Fail("union-find parents form a cycle");
+        c = parents[c];
+      }
+    }
+    const uint64_t nf = b.GetCount(24, "fused point");
+    for (uint64_t i = 0; i < nf; ++i) {
+      FusedPoint f;
+      f.dup = b.Get<int32_t>();
+      f.kept = b.Get<int32_t>();
+      f.dup_point = b.Get<int64_t>();
+      f.kept_point = b.Get<int64_t>();
+      if (f.dup < 0 || uint64_t(f.dup) >= n || f.kept < 0 || uint64_t(f.kept) >= n) b.Fail("fused point: bad submap");
+      loaded.fused().push_back(f);
+    }
+    if (b.remaining() != 0) b.Fail(std::to_string(b.remaining()) + " unexpected trailing bytes");
+    *map = std::move(loaded);
+    return true;
+  } catch (const CodecError& e) {
+    if (why) *why = e.what();
+    return false;
+  }
+}
+
+}  // namespace rumi

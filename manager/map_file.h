@@ -1,0 +1,44 @@
+#pragma once
+// The global map file: atomic save (write a new file, fsync, rename, fsync
+// the folder) and checked reload. A truncated, corrupt or foreign file is
+// refused with a clear error and the caller's map is left as it was.
+//
+// Layout (little-endian):
+//   "RUMIGMAP" | u32 version | u32 0 | u64 n + serializer name | u64 body size
+//   | u64 Checksum64(body) | body
+//   body: u64 submaps, each { Sim3 (s, qx qy qz qw, tx ty tz as f64) | i64
+//   union-find parent | u64 size + submap record from the serializer },
+//   u64 fused, each { i32 dup, i32 kept, i64 dup point, i64 kept point }.
+// Every count and length is checked against the bytes that remain.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "manager/global_map.h"
+
+namespace rumi {
+
+constexpr uint32_t kGlobalMapFileVersion = 1;
+
+// Pluggable submap record format. The name is stored in the file; a file
+// written with another serializer is refused.
+class SubmapSerializer {
+ public:
+  virtual ~SubmapSerializer() = default;
+  virtual std::string Name() const = 0;
+  virtual std::vector<uint8_t> Encode(const Submap& s) const = 0;
+  virtual bool Decode(const uint8_t* data, size_t size, Submap* s, std::string* why) const = 0;
+};
+
+// The shared binary submap codec of ipc/ (same records as on the channels).
+const SubmapSerializer& DefaultSubmapSerializer();
+
+bool SaveGlobalMap(const GlobalMap& map, const std::string& path, std::string* why,
+                   const SubmapSerializer& serializer = DefaultSubmapSerializer());
+
+// On failure returns false with *why naming the file and the problem; *map is
+// untouched.
+bool LoadGlobalMap(const std::string& path, GlobalMap* map, std::string* why,
+                   const SubmapSerializer& serializer = DefaultSubmapSerializer());
+
+}  // namespace rumi

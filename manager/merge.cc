@@ -1,0 +1,130 @@
+#include "manager/merge.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "common/logging.h"
+#include "manager/common_points.h"
+#include "manager/sim3_alignment.h"
+#include "manager/sim3_refine.h"
+#include "manager/submap_index.h"
+
+namespace rumi {
+namespace {
+double Since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+MergeReport Reject(MergeReport r, const std::string& why) {
+  r.reason = why;
+  spdlog::info("merge {} <-> {} rejected: {}", ToString(r.front), ToString(r.back), why);
+  return r;
+}
+}  // namespace
+
+void TransformSubmap(const Sim3& S, Submap* s) {
+  for (Keyframe& kf : s->keyframes) kf.T_cw = S.TransformPose(kf.T_wc()).Inverse();
+  for (MapPoint& p : s->points) p.position = S * p.position;
+  for (FrameRecord& f : s->frames) f.T_wc = S.TransformPose(f.T_wc);
+}
+
+MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& search, const ManagerOptions& options) {
+  MergeReport r;
+  r.front = map->Key(front);
+  r.back = map->Key(back);
+  if (map->Connected(front, back)) return Reject(r, "already connected");
+  const Submap& F = map->submap(front);
+  const Submap& B = map->submap(back);
+
+  auto t0 = std::chrono::steady_clock::now();
+  const std::vector<KeyframePair> pairs = PairKeyframes(F, B, search, options.pairing_max_dt_ns);
+  r.keyframe_pairs = int(pairs.size());
+  if (r.keyframe_pairs < options.min_keyframe_pairs)
+    return Reject(r, "too few keyframe pairs (" + std::to_string(pairs.size()) + ")");
+  const CommonPoints common = FindCommonPoints(F, B, pairs, options.match_radius_px);
+  const AlignmentResult align = AlignSubmaps(F, B, pairs, common, options);
+  r.common_points = align.num_point_matches;
+  r.inliers = align.num_inliers;
+  r.inlier_ratio = align.inlier_ratio;
+  r.init_method = align.method;
+  r.S_bf_initial = align.S_bf;
+  r.seconds_align = Since(t0);
+  if (!align.ok) return Reject(r, align.reason);
+
+  t0 = std::chrono::steady_clock::now();
+  const Sim3RefineResult refine = RefineSim3(F, B, common.matches, &align.inliers, align.S_bf, options);
+  r.seconds_refine = Since(t0);
+  if (!refine.ok) return Reject(r, "refinement failed: " + refine.message);
+  r.S_bf = refine.S_bf;
+  r.refine_initial_rmse_px = refine.initial_rmse_px;
+  r.refine_final_rmse_px = refine.final_rmse_px;
+
+  // Move the smaller component: S_gb * S_bf = S_gf afterwards.
+  const Sim3 S_gf = map->ToGlobal(front), S_gb = map->ToGlobal(back);
+  r.front_moved = map->NumKeyframes(map->Component(front)) <= map->NumKeyframes(map->Component(back));
+  if (r.front_moved) {
+    map->MoveComponent(front, S_gb * r.S_bf * S_gf.Inverse());
+  } else {
+    map->MoveComponent(back, S_gf * r.S_bf.Inverse() * S_gb.Inverse());
+  }
+  map->Union(front, back);
+
+  // Fuse M_com inliers that still agree in 3D after refinement: the front
+  // duplicate takes the back point's position and is linked to it.
+  t0 = std::chrono::steady_clock::now();
+  Submap& Fm = map->submap(front);
+  const SubmapIndex fi(Fm), bi(B);
+  const Sim3 S_fb = r.S_bf.Inverse();
+  std::vector<std::pair<int64_t, int64_t>> fused;
+  for (size_t m = 0; m < common.matches.size(); ++m) {
+    if (!align.inliers[m]) continue;
+    const int f = fi.Point(common.matches[m].front_point_id), b = bi.Point(common.matches[m].back_point_id);
+    if (f < 0 || b < 0) continue;
+    if ((r.S_bf * Fm.points[f].position - B.points[b].position).norm() > align.inlier_threshold) continue;
+    Fm.points[f].position = S_fb * B.points[b].position;
+    fused.emplace_back(Fm.points[f].id, B.points[b].id);
+    map->fused().push_back({front, Fm.points[f].id, back, B.points[b].id});
+  }
+  r.fused_points = int(fused.size());
+
+  if (options.welding_ba) {
+    std::vector<int64_t> seeds;
+    for (const auto& p : pairs) seeds.push_back(Fm.keyframes[p.front_keyframe].id);
+    const auto window = WeldingWindow(Fm, seeds, options.welding_min_covisible, options.welding_max_keyframes);
+    r.welding = WeldWindow(map, front, back, window, fused, options);
+  }
+  r.seconds_weld = Since(t0);
+  r.merged = true;
+  spdlog::info(
+      "merged {} with {} ({} side moved): {} pairs, {} common points, inlier ratio {:.2f} ({}), scale {:.4f}, refine rmse "
+      "{:.2f} -> {:.2f} px, {} fused, welding {} kf {:.2f} -> {:.2f} px",
+      ToString(r.front), ToString(r.back), r.front_moved ? "front" : "back", r.keyframe_pairs, r.common_points, r.inlier_ratio, r.init_method,
+      r.S_bf.scale(), r.refine_initial_rmse_px, r.refine_final_rmse_px, r.fused_points,
+      r.welding.window_keyframes, r.welding.initial_rmse_px, r.welding.final_rmse_px);
+  return r;
+}
+
+std::vector<MergeReport> MergeAll(GlobalMap* map, const ManagerOptions& options) {
+  std::vector<const Submap*> fronts, backs;
+  for (size_t i = 0; i < map->size(); ++i)
+    (map->submap(int(i)).source == SubmapSource::kBack ? backs : fronts).push_back(&map->submap(int(i)));
+  const SearchSet search = BuildSearchSet(fronts, backs, options.search_n);
+  std::vector<MergeReport> reports;
+  std::vector<std::pair<size_t, size_t>> tried;  // data unchanged: no retry
+  for (bool progress = true; progress;) {
+    progress = false;
+    for (size_t f = 0; f < map->size(); ++f) {
+      if (map->submap(int(f)).source != SubmapSource::kFront) continue;
+      for (size_t b = 0; b < map->size(); ++b) {
+        if (map->submap(int(b)).source != SubmapSource::kBack || map->Connected(int(f), int(b))) continue;
+        if (std::find(tried.begin(), tried.end(), std::make_pair(f, b)) != tried.end()) continue;
+        tried.emplace_back(f, b);
+        reports.push_back(MergePair(map, int(f), int(b), search, options));
+        progress |= reports.back().merged;
+      }
+    }
+  }
+  return reports;
+}
+
+}  // namespace rumi

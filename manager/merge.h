@@ -1,0 +1,46 @@
+#pragma once
+// Merging a front and a back submap (paper Section IV-C): pairing on F^search
+// -> M_com -> initial Sim(3) -> Formula 8 refinement -> Sim(3)s of the global
+// map updated (the smaller component moves) -> fuse M_com duplicates ->
+// welding-window BA.
+#include <string>
+#include <vector>
+
+#include "manager/global_map.h"
+#include "manager/manager_options.h"
+#include "manager/pairing.h"
+#include "manager/welding_ba.h"
+
+namespace rumi {
+
+struct MergeReport {
+  bool merged = false;
+  std::string reason;  // why not (empty when merged)
+  SubmapKey front, back;
+  int keyframe_pairs = 0;
+  int common_points = 0;
+  int inliers = 0;
+  double inlier_ratio = 0;
+  std::string init_method;
+  Sim3 S_bf_initial, S_bf;  // front frame -> back frame, before/after refinement
+  double refine_initial_rmse_px = 0, refine_final_rmse_px = 0;
+  bool front_moved = true;  // whose component moved (the smaller one)
+  int fused_points = 0;
+  WeldingReport welding;
+  double seconds_align = 0, seconds_refine = 0, seconds_weld = 0;
+};
+
+// Merges map submap `front` with map submap `back`. Does nothing (reason set)
+// when they are already connected or the alignment is rejected.
+MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& search, const ManagerOptions& options);
+
+// Tries every (front, back) pair of submaps not yet connected, repeating until
+// no merge succeeds (so chains A <-> back <-> B close), with F^search built
+// from all submaps.
+std::vector<MergeReport> MergeAll(GlobalMap* map, const ManagerOptions& options);
+
+// Re-expresses a submap by S (poses, points, frame records): for export and
+// for tests; the global map itself keeps submaps in their own frames.
+void TransformSubmap(const Sim3& S, Submap* s);
+
+}  // namespace rumi

@@ -1,0 +1,47 @@
+#pragma once
+// Pairing of back and front keyframes taken from the same image: the front
+// and the back see the same input, so a shared frame shows up as keyframes
+// with equal capture timestamps (|dt| < 1e-4 s). Only frames of F^search are
+// used: frames the front failed on plus the first and last n keyframes of
+// each back submap, where submaps meet and M_com is most likely.
+#include <cstdint>
+#include <vector>
+
+#include "common/submap.h"
+
+namespace rumi {
+
+struct KeyframePair {
+  int front_keyframe = -1;  // index into front.keyframes
+  int back_keyframe = -1;   // index into back.keyframes
+  int64_t dt_ns = 0;        // back - front
+};
+
+// Sorted set of timestamps compared with a tolerance.
+class SearchSet {
+ public:
+  void Add(Timestamp t) { times_.push_back(t); sorted_ = false; }
+  // True when some member t' has |t - t'| < max_dt_ns.
+  bool Contains(Timestamp t, int64_t max_dt_ns) const;
+  size_t size() const { return times_.size(); }
+  bool all() const { return all_; }
+  void set_all(bool all) { all_ = all; }
+
+ private:
+  void Sort() const;
+  mutable std::vector<Timestamp> times_;
+  mutable bool sorted_ = true;
+  bool all_ = false;  // every timestamp is a member
+};
+
+// F^search from the per-frame states of the front and the back submaps.
+// n == 0 puts every back keyframe in the set.
+SearchSet BuildSearchSet(const std::vector<const Submap*>& front_submaps,
+                         const std::vector<const Submap*>& back_submaps, int n);
+
+// One-to-one pairs: each back keyframe in the search set with the front
+// keyframe nearest in time when |dt| < max_dt_ns. Keyframes need not be sorted.
+std::vector<KeyframePair> PairKeyframes(const Submap& front, const Submap& back,
+                                        const SearchSet& search, int64_t max_dt_ns);
+
+}  // namespace rumi

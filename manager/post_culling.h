@@ -1,0 +1,22 @@
+#pragma once
+// Post-culling (paper step 3, after merging; the ORB-SLAM keyframe rule): a
+// keyframe is redundant when at least `culling_redundant_ratio` of its map
+// points are seen by at least `culling_min_observers` other keyframes at the
+// same or a finer octave (octave <= its own). Observers count across submaps
+// through fused points. Back keyframes are culled first (they duplicate the
+// front ones); points left without observations are removed. A culled
+// keyframe's pose stays as a FrameRecord so the global trajectory keeps it.
+#include "manager/global_map.h"
+#include "manager/manager_options.h"
+
+namespace rumi {
+
+struct CullingReport {
+  int keyframes_before = 0, keyframes_after = 0;  // "saved frames"
+  int points_before = 0, points_after = 0;
+  int culled_back = 0, culled_front = 0;
+};
+
+CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& options);
+
+}  // namespace rumi

@@ -1,0 +1,133 @@
+#include "manager/post_culling.h"
+
+#include <gtest/gtest.h>
+
+#include "manager/global_trajectory.h"
+#include "manager/merge.h"
+#include "manager/submap_index.h"
+#include "manager/test_scenario.h"
+
+namespace rumi {
+namespace {
+
+// Keyframe k observes points [first, first + n) at the given octave.
+void Observe(Submap* s, int k, int64_t first, int n, uint8_t octave) {
+  Keyframe& kf = s->keyframes[k];
+  for (int64_t p = first; p < first + n; ++p) {
+    auto it = std::find_if(s->points.begin(), s->points.end(), [&](const MapPoint& m) { return m.id == p; });
+    if (it == s->points.end()) {
+      s->points.emplace_back();
+      it = s->points.end() - 1;
+      it->id = p;
+    }
+    it->observations.push_back({kf.id, int32_t(kf.keypoints.size())});
+    kf.keypoints.emplace_back(float(p % 600), float(p % 400));
+    kf.octaves.push_back(octave);
+    kf.point_ids.push_back(p);
+  }
+}
+
+Submap Keyframes(SubmapSource src, int n) {
+  Submap s;
+  s.source = src;
+  s.id = 5;
+  for (int i = 0; i < n; ++i) {
+    Keyframe kf;
+    kf.id = i;
+    kf.timestamp = 1000000000LL * (i + 1);
+    s.keyframes.push_back(kf);
+  }
+  return s;
+}
+
+TEST(PostCulling, DuplicatesGoUniqueStay) {
+  Submap s = Keyframes(SubmapSource::kBack, 7);
+  for (int k = 0; k < 5; ++k) Observe(&s, k, 0, 100, 0);  // five duplicates
+  Observe(&s, 5, 1000, 100, 0);                            // unique view ...
+  Observe(&s, 6, 1000, 100, 0);                            // ... seen twice
+  GlobalMap map;
+  map.AddSubmap(s);
+  const auto r = CullRedundantKeyframes(&map, ManagerOptions());
+  // kf 0 and 1 have >= 3 other observers; then only 2 are left for 2, 3, 4.
+  EXPECT_EQ(r.keyframes_before, 7);
+  EXPECT_EQ(r.keyframes_after, 5);
+  EXPECT_EQ(r.culled_back, 2);
+  const Submap& m = map.submap(0);
+  std::vector<int64_t> ids;
+  for (const auto& kf : m.keyframes) ids.push_back(kf.id);
+  EXPECT_EQ(ids, (std::vector<int64_t>{2, 3, 4, 5, 6}));
+  // Culled poses stay as frame records; observations of culled keyframes go.
+  EXPECT_EQ(m.frames.size(), 2u);
+  for (const auto& p : m.points)
+    for (const auto& o : p.observations) EXPECT_GE(o.keyframe_id, 2);
+  EXPECT_EQ(r.points_after, 200);
+}
+
+TEST(PostCulling, PointsOnlyCulledKeyframesSupportedAreRemoved) {
+  Submap s = Keyframes(SubmapSource::kBack, 5);
+  for (int k = 0; k < 5; ++k) Observe(&s, k, 0, 100, 0);
+  Observe(&s, 0, 500, 5, 0);  // 5 % private points: kf 0 is still >= 90 % redundant
+  GlobalMap map;
+  map.AddSubmap(s);
+  const auto r = CullRedundantKeyframes(&map, ManagerOptions());
+  EXPECT_EQ(r.culled_back, 2);  // 0 and 1
+  EXPECT_EQ(r.points_before, 105);
+  EXPECT_EQ(r.points_after, 100);
+}
+
+TEST(PostCulling, OctaveRule) {
+  // kf 0 sees its points at octave 0, the others only coarser (octave 1):
+  // not redundant. kf 4 sees them at octave 2: the others are finer.
+  Submap s = Keyframes(SubmapSource::kBack, 5);
+  Observe(&s, 0, 0, 50, 0);
+  for (int k = 1; k < 4; ++k) Observe(&s, k, 0, 50, 1);
+  Observe(&s, 4, 0, 50, 2);
+  GlobalMap map;
+  map.AddSubmap(s);
+  CullRedundantKeyframes(&map, ManagerOptions());
+  std::vector<int64_t> ids;
+  for (const auto& kf : map.submap(0).keyframes) ids.push_back(kf.id);
+  // 0 kept (finer than all); 1 culled (0, 2, 3 at <= 1); then 2, 3 lack a third
+  // observer at <= 1; 4 sees 0, 2, 3 at <= 2: culled.
+  EXPECT_EQ(ids, (std::vector<int64_t>{0, 2, 3}));
+}
+
+TEST(PostCulling, MergedScenarioCullsBackFirstAndKeepsTrajectory) {
+  const auto s = testing::MakeScenario();
+  GlobalMap map;
+  const int a = map.AddSubmap(s.front_a.submap);
+  map.AddSubmap(s.front_b.submap);
+  const int k = map.AddSubmap(s.back.submap);
+  MergeAll(&map, ManagerOptions());
+  const size_t back_before = map.submap(k).keyframes.size();
+  size_t front_before = 0;
+  for (size_t i = 0; i < map.size(); ++i)
+    if (int(i) != k) front_before += map.submap(int(i)).keyframes.size();
+  const auto traj_before = ComputeGlobalTrajectory(map);
+  const auto r = CullRedundantKeyframes(&map, ManagerOptions());
+  EXPECT_GT(r.culled_back, int(back_before) / 2);  // dense back keyframes are duplicates
+  EXPECT_LT(r.keyframes_after, r.keyframes_before);
+  EXPECT_LT(r.culled_front, r.culled_back);
+  // Back first: a larger share of the back goes than of the fronts.
+  EXPECT_GT(double(r.culled_back) / back_before, double(r.culled_front) / front_before);
+  EXPECT_GE(map.submap(a).keyframes.size(), 1u);
+  // Every remaining keyframe observation points to an existing point.
+  for (size_t i = 0; i < map.size(); ++i) {
+    const SubmapIndex idx(map.submap(int(i)));
+    for (const auto& kf : map.submap(int(i)).keyframes)
+      for (int64_t pid : kf.point_ids)
+        if (pid >= 0) {
+          EXPECT_GE(idx.Point(pid), 0);
+        }
+  }
+  // Culled keyframes keep their poses: the trajectory is unchanged.
+  const auto traj_after = ComputeGlobalTrajectory(map);
+  ASSERT_EQ(traj_after.size(), traj_before.size());
+  for (size_t i = 0; i < traj_after.size(); ++i) {
+    EXPECT_EQ(traj_after[i].timestamp, traj_before[i].timestamp);
+    EXPECT_LT((traj_after[i].T_wc.translation() - traj_before[i].T_wc.translation()).norm(), 1e-9);
+  }
+}
+
+}  // namespace
+}  // namespace rumi

@@ -1,0 +1,79 @@
+#pragma once
+// The three-submap scenario shared by the manager's tests (header-only, test
+// code): front A (frames 0-40), back (30-80), front B (70-110), each in its
+// own random Sim(3) frame; frames 41-69 are lost by the front.
+#include "manager/synthetic_submaps.h"
+
+namespace rumi::testing {
+
+struct Scenario {
+  SyntheticScene scene;
+  SyntheticSubmap front_a, back, front_b;
+  Sim3 S_aw, S_bw, S_fbw;  // world -> A, world -> back, world -> front B
+};
+
+// pose_noise: keyframe and frame poses off the truth by ~1 cm / 0.1 deg, as
+// estimated poses are (keypoints are always projected from the truth).
+inline Scenario MakeScenario(uint32_t seed = 3, double pixel_noise = 1.0, int num_points = 1200,
+                             bool pose_noise = true) {
+  Scenario s;
+  SyntheticSceneOptions so;
+  so.num_points = num_points;
+  so.seed = seed;
+  s.scene = MakeSyntheticScene(so);
+  s.S_aw = RandomSim3(seed * 11 + 1);
+  s.S_bw = RandomSim3(seed * 11 + 2);
+  s.S_fbw = RandomSim3(seed * 11 + 3);
+
+  SyntheticSubmapOptions a;
+  a.id = 1;
+  a.source = SubmapSource::kFront;
+  a.first_frame = 0;
+  a.last_frame = 40;
+  a.keyframe_step = 2;
+  a.S_lw = s.S_aw;
+  a.pixel_noise = pixel_noise;
+  a.max_octave = 3;
+  a.pose_noise_m = pose_noise ? 0.01 : 0.0;
+  a.pose_noise_rad = pose_noise ? 0.002 : 0.0;
+  a.point_id_offset = 1000000;
+  a.seed = seed * 11 + 4;
+  s.front_a = MakeSyntheticSubmap(s.scene, a);
+  // The front lost frames 41-69: recorded in A's frame list as lost.
+  for (int f = 41; f <= 69; ++f) {
+    FrameRecord r;
+    r.timestamp = s.scene.timestamps[f];
+    r.state = TrackingState::kLost;
+    r.submap_id = -1;
+    s.front_a.submap.frames.push_back(r);
+  }
+
+  SyntheticSubmapOptions b = a;
+  b.id = 1;
+  b.source = SubmapSource::kBack;
+  b.first_frame = 30;
+  b.last_frame = 80;
+  b.keyframe_step = 1;
+  b.S_lw = s.S_bw;
+  b.max_octave = 0;
+  b.frame_records = false;
+  b.point_id_offset = 2000000;
+  b.seed = seed * 11 + 5;
+  s.back = MakeSyntheticSubmap(s.scene, b);
+
+  SyntheticSubmapOptions c = a;
+  c.id = 2;
+  c.first_frame = 70;
+  c.last_frame = 110;
+  c.S_lw = s.S_fbw;
+  c.point_id_offset = 3000000;
+  c.seed = seed * 11 + 6;
+  s.front_b = MakeSyntheticSubmap(s.scene, c);
+  return s;
+}
+
+inline double Sim3RotationError(const Sim3& a, const Sim3& b) {
+  return RotationAngle(a.rotation() * b.rotation().conjugate());
+}
+
+}  // namespace rumi::testing
