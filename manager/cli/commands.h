@@ -7,5 +7,6 @@ namespace rumi::cli {
 void RegisterEvalCommands(CLI::App* app);   // eval_command.cc: eval ate (later eval run/table)
 void RegisterSynthCommand(CLI::App* app);   // synth_command.cc
 void AddEvalTableCommand(CLI::App* eval);   // eval_table_command.cc: under `eval`
+void AddEvalRunCommand(CLI::App* eval);     // eval_run_command.cc: under `eval`
 
 }  // namespace rumi::cli

@@ -1,0 +1,108 @@
+#pragma once
+// One run's metrics.json for `rumi eval run` (keys in docs/eval.md), computed
+// from the files the three processes leave in the run dir. Parsed back by
+// common/eval_table (ParseRunMetrics) for `rumi eval table`.
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/submap.h"
+#include "common/timestamp.h"
+#include "common/trajectory.h"
+#include "common/trajectory_eval.h"
+
+namespace rumi {
+
+// Figures the processes report about themselves (back_stats.json,
+// manager_stats.json, front_stats.json).
+struct RunCounts {
+  int64_t back_windows = 0;
+  double back_seconds = 0;
+  int64_t merges = 0;
+  int64_t saved_frames = 0;             // frames (keyframes) in the merged map
+  int64_t saved_frames_postculled = 0;  // after post-culling
+  int64_t submaps_front = 0;
+  int64_t submaps_back = 0;
+  int64_t front_saved_frames = 0;       // keyframes the front alone kept
+};
+
+struct RunMetricsInput {
+  std::string sequence;
+  std::vector<Timestamp> frames;  // every frame of the sequence, increasing
+  Trajectory ground_truth;        // empty: no ground truth
+  Trajectory front;               // front's largest submap
+  Trajectory merged;              // manager's largest merged map
+  std::vector<double> front_ms;   // per-frame front time; may be empty
+  RunCounts counts;
+  AteOptions ate;                 // Sim(3), max_diff 0.02 s by default
+  TrackingRateOptions rate;
+};
+
+struct TrajectoryMetrics {
+  double rate_time = 0;    // covered duration / sequence duration
+  double rate_frames = 0;  // frames with a pose / all frames
+  std::optional<double> ate_rmse;  // null without GT or when ATE is impossible
+  size_t ate_pairs = 0;
+  std::optional<Sim3> S_gt_est;    // alignment used (for plots)
+  std::string ate_note;            // why the RMSE is null, if it is
+};
+
+struct RunMetricsReport {
+  std::string sequence;
+  size_t frames = 0;
+  double duration_s = 0;
+  TrajectoryMetrics front, merged;
+  std::optional<double> front_ms_mean, front_ms_median, front_ms_p95;
+  RunCounts counts;
+};
+
+// Throws std::runtime_error when frames has fewer than 2 entries or a list is
+// not strictly increasing. An ATE that cannot be computed (no pairs, fewer
+// than 3, degenerate) gives a null RMSE with the reason in ate_note.
+RunMetricsReport ComputeRunMetrics(const RunMetricsInput& input);
+TrajectoryMetrics ComputeTrajectoryMetrics(const std::vector<Timestamp>& frames,
+                                           const Trajectory& est, const Trajectory& gt,
+                                           const AteOptions& ate,
+                                           const TrackingRateOptions& rate);
+
+// metrics.json text (pretty, 2 spaces).
+std::string FormatRunMetricsJson(const RunMetricsReport& report);
+void WriteRunMetricsJson(const std::string& path, const RunMetricsReport& report);
+
+// Numpy-style median (mean of the two middle values) and nearest-rank p-th
+// percentile (p in [0, 100]); nullopt for no values.
+std::optional<double> Median(std::vector<double> values);
+std::optional<double> PercentileNearestRank(std::vector<double> values, double p);
+
+// ---- run-dir files written by rumi-front (contract in docs/eval.md) --------
+struct FrontFrameLine {
+  Timestamp t = 0;
+  TrackingState state = TrackingState::kInitializing;
+  int64_t submap_id = -1;
+  std::optional<double> ms;  // per-frame time, when the 4th column is given
+};
+struct FrontSampleLine {
+  Timestamp t = 0;
+  int set = 0;  // 1, 2, 3 for S1, S2, S3
+  int64_t window_id = -1;
+};
+// front_frames.txt: "t_seconds state submap_id [ms [more columns...]]", state
+// as a name (tracking, lost, initializing, coarse) or its number 0..3.
+// front_samples.txt: "t_seconds set window_id", set as 1..3 or S1..S3.
+// '#' lines and blank lines are skipped; throws naming file:line otherwise.
+std::vector<FrontFrameLine> ParseFrontFrames(std::istream& in, const std::string& name);
+std::vector<FrontFrameLine> ReadFrontFrames(const std::string& path);
+std::vector<FrontSampleLine> ParseFrontSamples(std::istream& in, const std::string& name);
+std::vector<FrontSampleLine> ReadFrontSamples(const std::string& path);
+bool ParseTrackingState(const std::string& text, TrackingState* state);
+
+// {"windows": N, "seconds": S} from back_stats.json; {"merges", "saved_frames",
+// "saved_frames_postculled", "submaps_front", "submaps_back"} from
+// manager_stats.json; {"saved_frames", "submaps"} from front_stats.json.
+// Each throws naming the file and key when one is missing or not a number.
+void ReadBackStats(const std::string& path, RunCounts* counts);
+void ReadManagerStats(const std::string& path, RunCounts* counts);
+void ReadFrontStats(const std::string& path, RunCounts* counts);
+
+}  // namespace rumi
