@@ -36,6 +36,18 @@ ConfigSection ConfigSection::Child(const std::string& key) {
   return c;
 }
 
+namespace {
+void MarkUsed(const YAML::Node& node, const std::string& key, std::set<std::string>* used) {
+  used->insert(key);
+  if (!node.IsMap()) return;
+  for (const auto& kv : node) MarkUsed(kv.second, key + "." + kv.first.as<std::string>(), used);
+}
+}  // namespace
+
+void ConfigSection::Ignore(const std::string& key) {
+  if (node_.IsMap() && node_[key]) MarkUsed(node_[key], FullKey(key), used_.get());
+}
+
 void ConfigSection::Fail(const std::string& key, const std::string& why) const {
   throw ConfigError(file_ + ": key '" + FullKey(key) + "': " + why);
 }

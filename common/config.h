@@ -37,6 +37,10 @@ class ConfigSection {
   // Sub-section (empty when absent; throws when present but not a map).
   ConfigSection Child(const std::string& key);
 
+  // Marks key and everything below it as used without reading it: a section
+  // that belongs to another process in a shared config file.
+  void Ignore(const std::string& key);
+
   // Throws ConfigError listing every key that was present but never read.
   void Finish() const;
   // Throws ConfigError for this section's key with the given reason.

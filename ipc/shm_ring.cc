@@ -448,6 +448,7 @@ PopStatus RingConsumer::Peek(const uint8_t** data, size_t* bytes, double timeout
       st = TryPeekOnce(data, bytes);
       if (st == PopStatus::kEmpty && hdr_->closed.load(std::memory_order_acquire)) {
         Detach();  // drained; the next producer makes a new segment
+        ++closed_segments_;
         st = PopStatus::kNotConnected;
       }
     }

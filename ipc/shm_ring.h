@@ -197,6 +197,9 @@ class RingConsumer {
   }
 
   bool connected() const { return hdr_ != nullptr; }
+  // Segments this consumer left because their producer closed them and they
+  // were drained (also counts one attached and left within a single Peek).
+  uint64_t closed_segments() const { return closed_segments_; }
   // Why the last attach failed (incompatible layout, another live consumer).
   const std::string& last_error() const { return last_error_; }
   RingStats Stats() const;
@@ -213,6 +216,7 @@ class RingConsumer {
   RingHeader* hdr_ = nullptr;
   uint64_t cursor_ = 0;
   bool holding_ = false;
+  uint64_t closed_segments_ = 0;
   std::string last_error_;
 };
 

@@ -1,0 +1,292 @@
+// Cross-process test of rumi-manager: this test acts as the front and back
+// producers on the shared-memory channels of a private instance.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <thread>
+
+#include "common/timestamp.h"
+#include "ipc/channels.h"
+#include "manager/test_scenario.h"
+
+namespace rumi {
+namespace {
+namespace fs = std::filesystem;
+
+std::string ManagerBinary() {
+  const char* dir = std::getenv("RUMI_BIN_DIR");
+  return (fs::path(dir ? dir : RUMI_BINARY_DIR "/bin") / "rumi-manager").string();
+}
+
+// Starts rumi-manager with stderr to `log`.
+pid_t Spawn(const std::vector<std::string>& args, const std::string& log) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    if (fd >= 0) {
+      ::dup2(fd, 2);
+      ::dup2(fd, 1);
+    }
+    std::vector<char*> argv;
+    const std::string bin = ManagerBinary();
+    argv.push_back(const_cast<char*>(bin.c_str()));
+    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    ::execv(bin.c_str(), argv.data());
+    ::_exit(127);
+  }
+  return pid;
+}
+
+// Exit status, or -1 (child killed) when it does not end within timeout_s.
+int WaitExit(pid_t pid, double timeout_s) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  for (;;) {
+    int status = 0;
+    if (::waitpid(pid, &status, WNOHANG) == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : -2;
+    if (std::chrono::steady_clock::now() > end) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      return -1;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+}
+
+// Waits until the manager (pid) is attached as consumer to both rings: a
+// producer that closes before that would take its messages with it.
+bool WaitAttached(SubmapSender* front, SubmapSender* back, pid_t pid, double timeout_s) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (std::chrono::steady_clock::now() < end) {
+    const RingStats f = front->ring().Stats(), b = back->ring().Stats();
+    if (f.consumer_pid == uint64_t(pid) && f.consumer_alive && b.consumer_pid == uint64_t(pid) && b.consumer_alive)
+      return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return false;
+}
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::vector<Timestamp> TumTimes(const std::string& path) {
+  std::vector<Timestamp> t;
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line)) {
+    Timestamp ns = 0;
+    EXPECT_TRUE(ParseSecondsToNs(line.substr(0, line.find(' ')), &ns)) << line;
+    t.push_back(ns);
+  }
+  return t;
+}
+
+class ManagerProcess : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_TRUE(fs::exists(ManagerBinary())) << ManagerBinary();
+    instance_ = "test_" + std::to_string(::getpid());
+    dir_ = fs::temp_directory_path() / ("rumi_mgrproc_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    ipc_.instance = instance_;
+  }
+  void TearDown() override {
+    for (const pid_t p : spawned_) {  // a failed assertion left it running
+      int status = 0;
+      if (::waitpid(p, &status, WNOHANG) == 0) {
+        ::kill(p, SIGKILL);
+        ::waitpid(p, &status, 0);
+      }
+    }
+    RemoveSegment(SegmentName(instance_, kFrontSubmapChannel));
+    RemoveSegment(SegmentName(instance_, kBackSubmapChannel));
+    if (!HasFailure() && !std::getenv("RUMI_KEEP_TEST_DIR")) fs::remove_all(dir_);
+  }
+  std::vector<std::string> Args(const std::string& extra_wait = "15") const {
+    return {"--instance", instance_, "--out", (dir_ / "out").string(), "--wait-for-producers", extra_wait,
+            "--rebuild-interval", "0.2"};
+  }
+  pid_t Start(const std::vector<std::string>& args, const std::string& log) {
+    const pid_t pid = Spawn(args, log);
+    if (pid > 0) spawned_.push_back(pid);
+    return pid;
+  }
+  std::vector<pid_t> spawned_;
+  std::string instance_;
+  fs::path dir_;
+  IpcOptions ipc_;
+};
+
+TEST_F(ManagerProcess, MergesWhatTheProducersSendAndReloadsTheMap) {
+  const auto s = testing::MakeScenario();
+  const std::string log = (dir_ / "manager.log").string();
+  const pid_t pid = Start(Args(), log);
+  ASSERT_GT(pid, 0);
+  {
+    SubmapSender front(ipc_, SubmapSource::kFront);
+    SubmapSender back(ipc_, SubmapSource::kBack);
+    const bool attached = WaitAttached(&front, &back, pid, 10);
+    EXPECT_TRUE(attached) << ReadAll(log);
+    // A malformed record first: logged, counted, survived.
+    const std::string garbage = "RUMISMAP this is not a submap record";
+    EXPECT_EQ(front.ring().PushCopy(garbage.data(), garbage.size()), PushStatus::kOk);
+    EXPECT_EQ(front.Send(s.front_a.submap), PushStatus::kOk);
+    EXPECT_EQ(back.Send(s.back.submap), PushStatus::kOk);
+    EXPECT_EQ(front.Send(s.front_b.submap), PushStatus::kOk);
+  }  // clean exit of both producers: channels closed
+  ASSERT_EQ(WaitExit(pid, 20), 0) << ReadAll(log);
+
+  const fs::path out = dir_ / "out";
+  const auto times = TumTimes((out / "merged.txt").string());
+  ASSERT_EQ(times.size(), 111u) << ReadAll(log);
+  for (int f = 0; f <= 110; ++f) EXPECT_EQ(times[f], s.scene.timestamps[f]) << f;
+  nlohmann::json j = nlohmann::json::parse(ReadAll((out / "manager_stats.json").string()));
+  EXPECT_GE(j["merges"].get<int>(), 2);
+  EXPECT_EQ(j["components"], 1);
+  EXPECT_EQ(j["submaps_front"], 2);
+  EXPECT_EQ(j["submaps_back"], 1);
+  EXPECT_EQ(j["saved_frames"], 93);
+  EXPECT_LT(j["saved_frames_postculled"].get<int>(), 93);
+  EXPECT_EQ(j["decode_errors"], 1);
+  const std::string text = ReadAll(log);
+  EXPECT_NE(text.find("undecodable submap"), std::string::npos) << text;
+  ASSERT_TRUE(fs::exists(out / "map.rumi"));
+  const int postculled = j["saved_frames_postculled"];
+
+  // Second run on the same folder: reloads map.rumi; producers come and go
+  // without sending anything.
+  const pid_t pid2 = Start(Args(), log);
+  ASSERT_GT(pid2, 0);
+  {
+    SubmapSender front(ipc_, SubmapSource::kFront);
+    SubmapSender back(ipc_, SubmapSource::kBack);
+    EXPECT_TRUE(WaitAttached(&front, &back, pid2, 10)) << ReadAll(log);
+  }
+  ASSERT_EQ(WaitExit(pid2, 20), 0) << ReadAll(log);
+  j = nlohmann::json::parse(ReadAll((out / "manager_stats.json").string()));
+  EXPECT_EQ(j["base_submaps"], 3);
+  EXPECT_EQ(j["saved_frames"], 93);
+  EXPECT_EQ(j["saved_frames_postculled"], postculled);
+  EXPECT_EQ(j["merges"], 2);
+  EXPECT_EQ(j["components"], 1);
+  EXPECT_EQ(TumTimes((out / "merged.txt").string()).size(), 111u);
+  EXPECT_NE(ReadAll(log).find("reloaded"), std::string::npos);
+  EXPECT_FALSE(fs::exists(out / "map.rumi.bad"));
+}
+
+TEST_F(ManagerProcess, SigtermSavesWhatArrivedAndExitsZero) {
+  const auto s = testing::MakeScenario();
+  const std::string log = (dir_ / "manager.log").string();
+  const pid_t pid = Start(Args("0"), log);  // would wait forever for the back
+  ASSERT_GT(pid, 0);
+  SubmapSender front(ipc_, SubmapSource::kFront);
+  SubmapSender back(ipc_, SubmapSource::kBack);
+  ASSERT_TRUE(WaitAttached(&front, &back, pid, 10)) << ReadAll(log);
+  EXPECT_EQ(front.Send(s.front_a.submap), PushStatus::kOk);
+  // Wait until the manager has read it, then stop it.
+  for (int i = 0; i < 500 && front.ring().Stats().popped == 0; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ::kill(pid, SIGTERM);
+  ASSERT_EQ(WaitExit(pid, 20), 0) << ReadAll(log);
+  const fs::path out = dir_ / "out";
+  EXPECT_EQ(TumTimes((out / "merged.txt").string()).size(), 41u) << ReadAll(log);
+  const auto j = nlohmann::json::parse(ReadAll((out / "manager_stats.json").string()));
+  EXPECT_EQ(j["submaps_front"], 1);
+  EXPECT_TRUE(fs::exists(out / "map.rumi"));
+}
+
+TEST_F(ManagerProcess, AProducerThatDiesWithoutClosingCountsAsFinished) {
+  const auto s = testing::MakeScenario();
+  const std::string log = (dir_ / "manager.log").string();
+  const pid_t pid = Start(Args(), log);
+  ASSERT_GT(pid, 0);
+  int pipefd[2];
+  ASSERT_EQ(::pipe(pipefd), 0);
+  const pid_t front_pid = ::fork();
+  if (front_pid == 0) {  // a front that crashes after sending: no destructor, no close
+    ::close(pipefd[0]);
+    SubmapSender front(ipc_, SubmapSource::kFront);
+    for (int i = 0; i < 1000 && front.ring().Stats().consumer_pid != uint64_t(pid); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    const char ok = front.Send(s.front_a.submap) == PushStatus::kOk ? '1' : '0';
+    for (int i = 0; i < 1000 && front.ring().Stats().popped == 0; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    (void)!::write(pipefd[1], &ok, 1);
+    ::_exit(0);
+  }
+  ::close(pipefd[1]);
+  char ok = 0;
+  EXPECT_EQ(::read(pipefd[0], &ok, 1), 1);
+  ::close(pipefd[0]);
+  EXPECT_EQ(ok, '1');
+  int status = 0;
+  ::waitpid(front_pid, &status, 0);
+  {
+    SubmapSender back(ipc_, SubmapSource::kBack);
+    for (int i = 0; i < 1000 && back.ring().Stats().consumer_pid != uint64_t(pid); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    EXPECT_EQ(back.Send(s.back.submap), PushStatus::kOk);
+  }
+  ASSERT_EQ(WaitExit(pid, 20), 0) << ReadAll(log);
+  const std::string text = ReadAll(log);
+  EXPECT_NE(text.find("died without closing"), std::string::npos) << text;
+  const auto j = nlohmann::json::parse(ReadAll((dir_ / "out" / "manager_stats.json").string()));
+  EXPECT_EQ(j["merges"], 1);
+  EXPECT_EQ(TumTimes((dir_ / "out" / "merged.txt").string()).size(), 81u);
+}
+
+TEST_F(ManagerProcess, ARestartedFrontIsReadAgain) {
+  const auto s = testing::MakeScenario();
+  const std::string log = (dir_ / "manager.log").string();
+  const pid_t pid = Start(Args(), log);
+  ASSERT_GT(pid, 0);
+  {
+    SubmapSender back(ipc_, SubmapSource::kBack);
+    {
+      SubmapSender front(ipc_, SubmapSource::kFront);
+      ASSERT_TRUE(WaitAttached(&front, &back, pid, 10)) << ReadAll(log);
+      EXPECT_EQ(front.Send(s.front_a.submap), PushStatus::kOk);
+    }  // the first front closes; the back is still open, so the manager goes on
+    SubmapSender front(ipc_, SubmapSource::kFront);
+    ASSERT_TRUE(WaitAttached(&front, &back, pid, 10)) << ReadAll(log);
+    EXPECT_EQ(front.Send(s.front_b.submap), PushStatus::kOk);
+    EXPECT_EQ(back.Send(s.back.submap), PushStatus::kOk);
+  }
+  ASSERT_EQ(WaitExit(pid, 20), 0) << ReadAll(log);
+  const auto j = nlohmann::json::parse(ReadAll((dir_ / "out" / "manager_stats.json").string()));
+  EXPECT_EQ(j["messages_front"], 2);
+  EXPECT_EQ(j["merges"], 2);
+  EXPECT_EQ(TumTimes((dir_ / "out" / "merged.txt").string()).size(), 111u);
+}
+
+TEST_F(ManagerProcess, RefusesAConfigWithAnUnknownKey) {
+  const std::string cfg = (dir_ / "bad.yaml").string();
+  std::ofstream(cfg) << "manager:\n  search_n: 3\n  no_such_key: 1\nfront:\n  whatever: 2\n";
+  const std::string log = (dir_ / "manager.log").string();
+  std::vector<std::string> args = Args();
+  args.push_back("--config");
+  args.push_back(cfg);
+  const pid_t pid = Start(args, log);
+  EXPECT_EQ(WaitExit(pid, 10), 2);
+  const std::string text = ReadAll(log);
+  EXPECT_NE(text.find("bad.yaml"), std::string::npos) << text;
+  EXPECT_NE(text.find("manager.no_such_key"), std::string::npos) << text;
+  EXPECT_EQ(text.find("front.whatever"), std::string::npos) << text;
+}
+
+}  // namespace
+}  // namespace rumi

@@ -1,0 +1,504 @@
+#include "manager/manager_service.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <thread>
+#include <unistd.h>
+
+#include "common/timestamp.h"
+#include "manager/global_trajectory.h"
+#include "manager/map_file.h"
+
+namespace rumi {
+namespace fs = std::filesystem;
+
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// Writes via a temporary file and rename, so a reader never sees half a file.
+template <typename Write>
+bool WriteAtomically(const std::string& path, std::string* why, Write&& write) {
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  if (!write(tmp, why)) {
+    std::remove(tmp.c_str());
+    return false;
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    if (why) *why = "cannot rename " + tmp + " to " + path + ": " + ec.message();
+    std::remove(tmp.c_str());
+    return false;
+  }
+  return true;
+}
+
+nlohmann::json Sim3Json(const Sim3& S) {
+  const auto& q = S.rotation();
+  const auto& t = S.translation();
+  return {{"s", S.scale()}, {"q_xyzw", {q.x(), q.y(), q.z(), q.w()}}, {"t", {t.x(), t.y(), t.z()}}};
+}
+
+nlohmann::json ReportJson(const MergeReport& r) {
+  nlohmann::json j = {{"front", ToString(r.front)},
+                      {"back", ToString(r.back)},
+                      {"merged", r.merged},
+                      {"reason", r.reason},
+                      {"keyframe_pairs", r.keyframe_pairs},
+                      {"common_points", r.common_points},
+                      {"inliers", r.inliers},
+                      {"inlier_ratio", r.inlier_ratio},
+                      {"init_method", r.init_method},
+                      {"refine_initial_rmse_px", r.refine_initial_rmse_px},
+                      {"refine_final_rmse_px", r.refine_final_rmse_px},
+                      {"front_moved", r.front_moved},
+                      {"fused_points", r.fused_points},
+                      {"welding_keyframes", r.welding.window_keyframes},
+                      {"welding_initial_rmse_px", r.welding.initial_rmse_px},
+                      {"welding_final_rmse_px", r.welding.final_rmse_px},
+                      {"seconds_align", r.seconds_align},
+                      {"seconds_refine", r.seconds_refine},
+                      {"seconds_weld", r.seconds_weld}};
+  if (r.merged) j["S_bf"] = Sim3Json(r.S_bf);
+  return j;
+}
+
+// Component roots, the most keyframes first (ties: lower root first, as
+// GlobalMap::LargestComponent picks).
+std::vector<int> ComponentsBySize(const GlobalMap& map) {
+  std::vector<int> roots;
+  for (size_t i = 0; i < map.size(); ++i)
+    if (map.Component(int(i)) == int(i)) roots.push_back(int(i));
+  std::stable_sort(roots.begin(), roots.end(),
+                   [&](int a, int b) { return map.NumKeyframes(a) > map.NumKeyframes(b); });
+  return roots;
+}
+
+}  // namespace
+
+std::string ManagerServiceOptions::MapPath() const {
+  return map_path.empty() ? (fs::path(out_dir) / "map.rumi").string() : map_path;
+}
+
+GlobalMap CopyWithout(const GlobalMap& map, const std::vector<SubmapKey>& drop) {
+  GlobalMap out;
+  std::vector<int> new_index(map.size(), -1);
+  std::map<int, int> root_of_component;  // old component -> first kept new index
+  for (size_t i = 0; i < map.size(); ++i) {
+    if (std::find(drop.begin(), drop.end(), map.Key(int(i))) != drop.end()) continue;
+    const int n = out.AddSubmap(map.submap(int(i)));
+    out.entry(n).S_gl = map.ToGlobal(int(i));
+    new_index[i] = n;
+    const auto it = root_of_component.emplace(map.Component(int(i)), n).first;
+    out.SetParent(n, it->second);
+  }
+  for (const FusedPoint& f : map.fused()) {
+    if (new_index[f.dup] < 0 || new_index[f.kept] < 0) continue;
+    FusedPoint g = f;
+    g.dup = new_index[f.dup];
+    g.kept = new_index[f.kept];
+    out.fused().push_back(g);
+  }
+  return out;
+}
+
+ManagerService::ManagerService(ManagerServiceOptions options) : options_(std::move(options)) {}
+
+bool ManagerService::Start(std::string* why) {
+  std::error_code ec;
+  if (!options_.out_dir.empty()) fs::create_directories(options_.out_dir, ec);
+  if (ec) {
+    if (why) *why = "cannot create out dir " + options_.out_dir + ": " + ec.message();
+    return false;
+  }
+  while (fs::exists(fs::path(options_.out_dir) / ("merged_" + std::to_string(written_components_) + ".txt")))
+    ++written_components_;  // left by an earlier run: rewritten or removed at the next write
+  const std::string path = options_.MapPath();
+  std::string err;
+  if (fs::exists(path)) {
+    if (LoadGlobalMap(path, &base_, &err)) {
+      stats_.base_submaps = int(base_.size());
+      spdlog::info("manager: reloaded {} ({} submaps)", path, base_.size());
+      map_ = CopyWithout(base_, {});
+    } else if (!MoveAside(path, err, why)) {
+      return false;
+    }
+  } else {
+    spdlog::info("manager: no map file at {}, starting empty", path);
+  }
+  // The submaps as received, unmerged and unculled: a rebuild needs them
+  // (culling removes the back keyframes that pair with new front submaps).
+  const std::string raw_path = RawPath();
+  if (fs::exists(raw_path)) {
+    GlobalMap raw;
+    if (LoadGlobalMap(raw_path, &raw, &err)) {
+      for (size_t i = 0; i < raw.size(); ++i) received_[raw.Key(int(i))] = raw.submap(int(i));
+      spdlog::info("manager: reloaded {} received submaps from {}", raw.size(), raw_path);
+      // A submap missing from the map file (no usable map file, or a crash
+      // between the two saves): the product must be rebuilt.
+      for (size_t i = 0; i < raw.size(); ++i) dirty_ |= base_.Find(raw.Key(int(i))) < 0;
+    } else if (!MoveAside(raw_path, err, why)) {
+      return false;
+    }
+  }
+  // Until the first rebuild: keyframes received (before culling) and kept.
+  for (const auto& kv : received_) stats_.saved_frames += int(kv.second.keyframes.size());
+  for (size_t i = 0; i < map_.size(); ++i) stats_.saved_frames_postculled += int(map_.submap(int(i)).keyframes.size());
+  if (received_.empty()) stats_.saved_frames = stats_.saved_frames_postculled;
+  UpdateCounts();
+  return true;
+}
+
+std::string ManagerService::RawPath() const { return options_.MapPath() + ".raw"; }
+
+bool ManagerService::MoveAside(const std::string& path, const std::string& error, std::string* why) {
+  // Keep the unreadable file for inspection; the next save writes a new one.
+  std::string bad = path + ".bad";
+  for (int k = 1; fs::exists(bad); ++k) bad = path + ".bad." + std::to_string(k);
+  std::error_code ec;
+  fs::rename(path, bad, ec);
+  if (ec) {
+    if (why) *why = path + " does not load (" + error + ") and cannot be moved aside: " + ec.message();
+    return false;
+  }
+  spdlog::error("manager: {}; moved it to {}, not using it", error, bad);
+  return true;
+}
+
+bool ValidateSubmap(const Submap& s, std::string* why) {
+  const auto fail = [&](const std::string& w) {
+    if (why) *why = ToString(SubmapKey{s.source, s.id}) + ": " + w;
+    return false;
+  };
+  const auto finite_pose = [](const Se3& T) {
+    return T.translation().allFinite() && T.rotation().coeffs().allFinite() &&
+           std::abs(T.rotation().norm() - 1.0) < 1e-6;
+  };
+  if (s.source != SubmapSource::kFront && s.source != SubmapSource::kBack) return fail("source is not front or back");
+  if (s.id < 0) return fail("negative id");
+  const CameraIntrinsics& c = s.camera;
+  if (!(std::isfinite(c.fx) && std::isfinite(c.fy) && std::isfinite(c.cx) && std::isfinite(c.cy)) || c.fx == 0 ||
+      c.fy == 0)
+    return fail("camera intrinsics unusable");
+  std::set<int64_t> ids;
+  for (const Keyframe& k : s.keyframes) {
+    const std::string kf = "keyframe " + std::to_string(k.id) + ": ";
+    if (!ids.insert(k.id).second) return fail(kf + "duplicate keyframe id");
+    if (!finite_pose(k.T_cw)) return fail(kf + "pose not finite or not unit");
+    if (k.point_ids.size() != k.keypoints.size())
+      return fail(kf + std::to_string(k.keypoints.size()) + " keypoints but " + std::to_string(k.point_ids.size()) +
+                  " point ids");
+    if (!k.octaves.empty() && k.octaves.size() != k.keypoints.size()) return fail(kf + "octaves do not match keypoints");
+    if (!k.descriptors.empty() && size_t(k.descriptors.rows) != k.keypoints.size())
+      return fail(kf + "descriptor rows do not match keypoints");
+    for (const auto& p : k.keypoints)
+      if (!p.allFinite()) return fail(kf + "keypoint not finite");
+  }
+  for (const MapPoint& p : s.points)
+    if (!p.position.allFinite()) return fail("map point " + std::to_string(p.id) + " not finite");
+  for (const FrameRecord& f : s.frames)
+    if (!finite_pose(f.T_wc)) return fail("frame record at " + FormatSeconds(f.timestamp) + ": pose not finite");
+  return true;
+}
+
+bool ManagerService::AddSubmap(Submap s) {
+  const SubmapKey key{s.source, s.id};
+  (s.source == SubmapSource::kBack ? stats_.messages_back : stats_.messages_front)++;
+  std::string why;
+  if (!ValidateSubmap(s, &why)) {
+    ++stats_.invalid_submaps;
+    spdlog::error("manager: refusing submap {}", why);
+    return false;
+  }
+  auto it = received_.find(key);
+  if (it != received_.end()) {
+    ++stats_.resends;
+    spdlog::info("manager: {} received again ({} keyframes, was {}): replaces the earlier version",
+                 ToString(key), s.keyframes.size(), it->second.keyframes.size());
+    it->second = std::move(s);
+  } else {
+    spdlog::info("manager: {} received ({} keyframes, {} points, {} frames)", ToString(key), s.keyframes.size(),
+                 s.points.size(), s.frames.size());
+    received_.emplace(key, std::move(s));
+  }
+  dirty_ = raw_dirty_ = true;
+  return true;
+}
+
+void ManagerService::UpdateCounts() {
+  stats_.submaps_front = stats_.submaps_back = 0;
+  for (size_t i = 0; i < map_.size(); ++i)
+    (map_.submap(int(i)).source == SubmapSource::kBack ? stats_.submaps_back : stats_.submaps_front)++;
+  stats_.components = int(ComponentsBySize(map_).size());
+  stats_.merges = int(map_.size()) - stats_.components;
+}
+
+bool ManagerService::Rebuild(std::string* why) {
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<SubmapKey> replaced;
+  for (const auto& kv : received_) replaced.push_back(kv.first);
+  GlobalMap map = CopyWithout(base_, replaced);
+  for (const auto& kv : received_) map.AddSubmap(kv.second);
+  stats_.reports = MergeAll(&map, options_.manager);
+  stats_.merge_attempts = int(stats_.reports.size());
+  for (const auto& r : stats_.reports) {
+    if (r.merged) {
+      spdlog::info("manager: merged {} + {}: {} pairs, {} common points, inlier ratio {:.2f}, refine {:.2f} px",
+                   ToString(r.front), ToString(r.back), r.keyframe_pairs, r.common_points, r.inlier_ratio,
+                   r.refine_final_rmse_px);
+    } else {
+      spdlog::debug("manager: {} + {} not merged: {}", ToString(r.front), ToString(r.back), r.reason);
+    }
+  }
+  int keyframes = 0;
+  for (size_t i = 0; i < map.size(); ++i) keyframes += int(map.submap(int(i)).keyframes.size());
+  stats_.saved_frames = keyframes;
+  stats_.culling = CullingReport();
+  stats_.culling.keyframes_before = stats_.culling.keyframes_after = keyframes;
+  if (options_.post_culling) stats_.culling = CullRedundantKeyframes(&map, options_.manager);
+  stats_.saved_frames_postculled = stats_.culling.keyframes_after;
+  map_ = std::move(map);
+  dirty_ = false;
+  ++stats_.rebuilds;
+  UpdateCounts();
+  stats_.last_rebuild_seconds = SecondsSince(t0);
+  spdlog::info("manager: rebuild {} in {:.2f} s: {} submaps, {} components, {} merges, keyframes {} -> {} after culling",
+               stats_.rebuilds, stats_.last_rebuild_seconds, map_.size(), stats_.components, stats_.merges,
+               stats_.saved_frames, stats_.saved_frames_postculled);
+  return WriteOutputs(why);
+}
+
+bool ManagerService::WriteTrajectories(std::string* why) {
+  const std::vector<int> roots = ComponentsBySize(map_);
+  const auto write = [&](const std::string& name, const std::vector<GlobalPose>& traj) {
+    return WriteAtomically((fs::path(options_.out_dir) / name).string(), why,
+                           [&](const std::string& tmp, std::string* w) { return WriteTumTrajectory(tmp, traj, w); });
+  };
+  stats_.trajectory_frames = 0;
+  if (roots.empty() && !write("merged.txt", {})) return false;
+  for (size_t k = 0; k < roots.size(); ++k) {
+    const auto traj = ComputeGlobalTrajectory(map_, roots[k]);
+    if (!write("merged_" + std::to_string(k) + ".txt", traj)) return false;
+    if (k == 0) {
+      stats_.trajectory_frames = int(traj.size());
+      if (!write("merged.txt", traj)) return false;
+    }
+  }
+  // A resend can leave fewer components than before: drop stale files.
+  for (int k = int(roots.size()); k < written_components_; ++k)
+    std::remove((fs::path(options_.out_dir) / ("merged_" + std::to_string(k) + ".txt")).c_str());
+  written_components_ = int(roots.size());
+  return true;
+}
+
+bool ManagerService::WriteStats(std::string* why) const {
+  nlohmann::json j;
+  j["merges"] = stats_.merges;
+  j["saved_frames"] = stats_.saved_frames;
+  j["saved_frames_postculled"] = stats_.saved_frames_postculled;
+  j["submaps_front"] = stats_.submaps_front;
+  j["submaps_back"] = stats_.submaps_back;
+  j["components"] = stats_.components;
+  j["trajectory_frames"] = stats_.trajectory_frames;
+  j["messages_front"] = stats_.messages_front;
+  j["messages_back"] = stats_.messages_back;
+  j["resends"] = stats_.resends;
+  j["decode_errors"] = stats_.decode_errors;
+  j["invalid_submaps"] = stats_.invalid_submaps;
+  j["rebuilds"] = stats_.rebuilds;
+  j["merge_attempts"] = stats_.merge_attempts;
+  j["base_submaps"] = stats_.base_submaps;
+  j["last_rebuild_seconds"] = stats_.last_rebuild_seconds;
+  j["points_before_culling"] = stats_.culling.points_before;
+  j["points_after_culling"] = stats_.culling.points_after;
+  j["culled_back"] = stats_.culling.culled_back;
+  j["culled_front"] = stats_.culling.culled_front;
+  j["map_file"] = options_.MapPath();
+  nlohmann::json comps = nlohmann::json::array();
+  const std::vector<int> roots = ComponentsBySize(map_);
+  for (size_t k = 0; k < roots.size(); ++k) {
+    nlohmann::json members = nlohmann::json::array();
+    for (int m : map_.Members(roots[k])) members.push_back(ToString(map_.Key(m)));
+    comps.push_back({{"trajectory", "merged_" + std::to_string(k) + ".txt"},
+                     {"keyframes", map_.NumKeyframes(roots[k])},
+                     {"submaps", members}});
+  }
+  j["component_list"] = comps;
+  nlohmann::json reports = nlohmann::json::array();
+  for (const auto& r : stats_.reports) reports.push_back(ReportJson(r));
+  j["merge_reports"] = reports;
+  const std::string path = (fs::path(options_.out_dir) / "manager_stats.json").string();
+  return WriteAtomically(path, why, [&](const std::string& tmp, std::string* w) {
+    std::ofstream out(tmp);
+    out << j.dump(2) << "\n";
+    out.close();
+    if (!out) {
+      if (w) *w = "cannot write " + tmp;
+      return false;
+    }
+    return true;
+  });
+}
+
+bool ManagerService::WriteOutputs(std::string* why) {
+  std::string err;
+  if (raw_dirty_) {
+    GlobalMap raw;
+    for (const auto& kv : received_) raw.AddSubmap(kv.second);
+    if (!SaveGlobalMap(raw, RawPath(), &err)) {
+      if (why) *why = err;
+      return false;
+    }
+    raw_dirty_ = false;
+  }
+  if (!SaveGlobalMap(map_, options_.MapPath(), &err)) {
+    if (why) *why = err;
+    return false;
+  }
+  return WriteTrajectories(why) && WriteStats(why);
+}
+
+// ---------------- the consumer loop ----------------
+
+namespace {
+
+struct Channel {
+  enum class End { kNo, kClosed, kDied, kNeverAppeared };
+  const char* name;
+  SubmapSource source;
+  SubmapReceiver rx;
+  bool seen = false;  // a producer's segment was attached at least once
+  End end = End::kNo;  // finished (and drained) and why; a producer that comes back undoes it
+  uint64_t decode_errors = 0;
+  std::string last_error;
+  std::chrono::steady_clock::time_point last_liveness_check{};
+  Channel(const char* n, const IpcOptions& o, SubmapSource s) : name(n), source(s), rx(o, s) {}
+  bool ended() const { return end != End::kNo; }
+};
+
+// Polls one channel once. Returns true when a message arrived.
+bool PollChannel(Channel* c, ManagerService* service, double wait_for_producers_s,
+                 std::chrono::steady_clock::time_point start) {
+  const uint64_t closed_before = c->rx.ring().closed_segments();
+  Submap s;
+  const PopStatus st = c->rx.Receive(&s, 0.0);
+  if (c->rx.decode_errors() != c->decode_errors) {
+    service->CountDecodeErrors(int64_t(c->rx.decode_errors() - c->decode_errors));
+    c->decode_errors = c->rx.decode_errors();
+  }
+  if (st == PopStatus::kIncompatible && c->rx.ring().last_error() != c->last_error) {
+    c->last_error = c->rx.ring().last_error();
+    spdlog::error("manager: {} channel: {}", c->name, c->last_error);
+  }
+  const bool connected = c->rx.ring().connected();
+  const bool closed = c->rx.ring().closed_segments() != closed_before;
+  if (connected && (!c->seen || c->end == Channel::End::kClosed || c->end == Channel::End::kNeverAppeared)) {
+    spdlog::info("manager: {} producer attached ({})", c->name, c->rx.ring().name());
+    c->end = Channel::End::kNo;
+  }
+  c->seen |= connected || closed;
+  if (st == PopStatus::kOk) {
+    if (c->end == Channel::End::kDied) spdlog::info("manager: {} producer is back", c->name);
+    c->end = Channel::End::kNo;
+    if (s.source != c->source) {
+      spdlog::warn("manager: {} channel delivered a submap marked {}; taken as it is marked", c->name,
+                   s.source == SubmapSource::kFront ? "front" : "back");
+    }
+    service->AddSubmap(std::move(s));  // refused ones are logged and counted there
+    return true;
+  }
+  if (closed && !connected) {
+    // Left a closed, drained segment (and no new producer's segment yet).
+    spdlog::info("manager: {} producer closed its channel (drained)", c->name);
+    c->end = Channel::End::kClosed;
+  } else if (connected && st == PopStatus::kEmpty && SecondsSince(c->last_liveness_check) > 0.5) {
+    // A crashed producer leaves its segment: dead pid + empty ring = finished,
+    // until a restarted producer takes the segment over.
+    c->last_liveness_check = std::chrono::steady_clock::now();
+    const RingStats rs = c->rx.ring().Stats();
+    const bool dead = rs.producer_pid != 0 && !rs.producer_alive && !rs.closed && rs.head == rs.tail;
+    if (dead && c->end != Channel::End::kDied) {
+      spdlog::warn("manager: {} producer (pid {}) died without closing its channel; taking it as finished",
+                   c->name, rs.producer_pid);
+      c->end = Channel::End::kDied;
+    } else if (!dead && c->end == Channel::End::kDied) {
+      spdlog::info("manager: {} producer is back (pid {})", c->name, rs.producer_pid);
+      c->end = Channel::End::kNo;
+    }
+  } else if (!c->seen && !c->ended() && wait_for_producers_s > 0 && SecondsSince(start) > wait_for_producers_s) {
+    spdlog::warn("manager: no {} producer appeared within {} s; going on without it", c->name,
+                 wait_for_producers_s);
+    c->end = Channel::End::kNeverAppeared;
+  }
+  return false;
+}
+
+}  // namespace
+
+ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service, const std::atomic<bool>* stop) {
+  const auto start = std::chrono::steady_clock::now();
+  Channel front("front", run.ipc, SubmapSource::kFront);
+  Channel back("back", run.ipc, SubmapSource::kBack);
+  auto last_rebuild = start - std::chrono::hours(1);
+  ManagerExit result = ManagerExit::kProducersDone;
+  std::string why;
+  for (;;) {
+    if (stop && stop->load()) {
+      spdlog::info("manager: stop requested");
+      result = ManagerExit::kStopped;
+      break;
+    }
+    bool got = false;
+    // Finished channels are polled too: a restarted producer is read again.
+    for (Channel* c : {&front, &back}) got |= PollChannel(c, service, run.wait_for_producers_s, start);
+    if (front.ended() && back.ended()) break;
+    if (service->dirty() && SecondsSince(last_rebuild) >= run.rebuild_interval_s && !got) {
+      // Rebuild once the burst is read (got == false: the rings are empty now).
+      if (!service->Rebuild(&why)) {
+        spdlog::error("manager: {}", why);
+        return ManagerExit::kError;
+      }
+      last_rebuild = std::chrono::steady_clock::now();
+    }
+    if (!got) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  if (!front.seen && !back.seen && result == ManagerExit::kProducersDone) result = ManagerExit::kNoProducer;
+  if (service->dirty() && !service->Rebuild(&why)) {
+    spdlog::error("manager: {}", why);
+    return ManagerExit::kError;
+  }
+  if (!service->WriteOutputs(&why)) {
+    spdlog::error("manager: {}", why);
+    return ManagerExit::kError;
+  }
+  const ManagerStats& st = service->stats();
+  spdlog::info("manager: done: {} front + {} back submaps ({} messages, {} resends, {} malformed), {} merges, "
+               "{} components, {} frames in merged.txt, keyframes {} -> {}",
+               st.submaps_front, st.submaps_back, st.messages_front + st.messages_back, st.resends,
+               st.decode_errors, st.merges, st.components, st.trajectory_frames, st.saved_frames,
+               st.saved_frames_postculled);
+  return result;
+}
+
+void ReadManagerProcessConfig(ConfigSection& root, ManagerProcessConfig* c) {
+  ConfigSection m = root.Child("manager");
+  ReadOptions(m, &c->manager);
+  ConfigSection i = root.Child("ipc");
+  ReadOptions(i, &c->ipc);
+  root.Read("log_level", &c->log_level);
+  for (const char* other : {"front", "sampler", "back", "camera"}) root.Ignore(other);
+  root.Finish();
+}
+
+}  // namespace rumi

@@ -1,0 +1,139 @@
+#pragma once
+// The rumi-manager process logic, usable in-process (tests) and by
+// manager_main.cc: keeps the latest version of every submap, rebuilds the
+// global map (MergeAll + post-culling) when something changed, and writes the
+// map file, the global trajectories and manager_stats.json into the out dir.
+//
+// Rebuild policy: every received submap is kept as it arrived (the latest
+// version per (source, id); a front submap may be resent while it grows). A
+// rebuild starts from the map loaded at start (the "base", if any) without
+// the submaps that were received again, adds every received submap in its own
+// frame and runs MergeAll from scratch, then culls. Simple and correct for
+// resends; the cost is a full MergeAll per rebuild (O(fronts x backs) pair
+// attempts), so rebuilds are rate-limited by the caller (RunManagerLoop).
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "common/config.h"
+#include "common/submap.h"
+#include "ipc/channels.h"
+#include "manager/global_map.h"
+#include "manager/manager_options.h"
+#include "manager/merge.h"
+#include "manager/post_culling.h"
+
+namespace rumi {
+
+struct ManagerServiceOptions {
+  ManagerOptions manager;
+  std::string out_dir;   // created when missing
+  std::string map_path;  // empty: <out_dir>/map.rumi
+  bool post_culling = true;
+  std::string MapPath() const;
+};
+
+struct ManagerStats {
+  int64_t messages_front = 0, messages_back = 0;  // submaps received (resends included)
+  int64_t resends = 0;                            // received again with a known (source, id)
+  int64_t decode_errors = 0;                      // malformed messages dropped
+  int64_t invalid_submaps = 0;                    // decoded but inconsistent: refused
+  int64_t rebuilds = 0;
+  int merges = 0;  // successful merges that built the current map (submaps - components)
+  int merge_attempts = 0;  // MergePair calls of the last rebuild
+  int saved_frames = 0, saved_frames_postculled = 0;  // keyframes before / after culling
+  int submaps_front = 0, submaps_back = 0, components = 0;
+  int base_submaps = 0;  // submaps reloaded from the map file at start
+  int trajectory_frames = 0;  // frames of merged.txt
+  double last_rebuild_seconds = 0;
+  std::vector<MergeReport> reports;  // of the last rebuild (rejections included)
+  CullingReport culling;
+};
+
+class ManagerService {
+ public:
+  explicit ManagerService(ManagerServiceOptions options);
+
+  // Creates the out dir and reloads the map file when present. A file that
+  // does not load (truncated, foreign, corrupt) is logged, renamed to
+  // <map>.bad (or .bad.N) and the service starts empty. False only when the
+  // out dir cannot be created or a bad file cannot be moved aside.
+  bool Start(std::string* why);
+
+  // Keeps s as the latest version of (source, id) and marks the state dirty.
+  // A submap that fails ValidateSubmap is logged, counted and refused (false).
+  bool AddSubmap(Submap s);
+  void CountDecodeErrors(int64_t n) { stats_.decode_errors += n; }
+  bool dirty() const { return dirty_; }
+
+  // Rebuilds the global map from the base and all received submaps, culls,
+  // then writes the outputs. False (with why) when an output cannot be written.
+  bool Rebuild(std::string* why);
+  // Writes map file (atomic), merged.txt, merged_<k>.txt (one per component,
+  // largest first, merged_0 == merged.txt), manager_stats.json (all atomic).
+  bool WriteOutputs(std::string* why);
+
+  const GlobalMap& map() const { return map_; }
+  const ManagerStats& stats() const { return stats_; }
+  const ManagerServiceOptions& options() const { return options_; }
+
+ private:
+  std::string RawPath() const;
+  bool MoveAside(const std::string& path, const std::string& error, std::string* why);
+  void UpdateCounts();
+  bool WriteTrajectories(std::string* why);
+  bool WriteStats(std::string* why) const;
+
+  ManagerServiceOptions options_;
+  GlobalMap base_;  // reloaded at start
+  std::map<SubmapKey, Submap> received_;
+  GlobalMap map_;  // current product
+  bool dirty_ = false;
+  bool raw_dirty_ = false;  // received_ changed since the raw file was written
+  int written_components_ = 0;  // merged_<k>.txt files present
+  ManagerStats stats_;
+};
+
+// What the codec cannot check: a source of front/back, id >= 0, a usable
+// camera, per keyframe as many point ids (and octaves, descriptors when
+// present) as keypoints, unique keyframe ids, finite poses and points, unit
+// quaternions. False with the first problem found.
+bool ValidateSubmap(const Submap& s, std::string* why);
+
+// Copy of `map` without the submaps whose key is in `drop`. Submaps that were
+// in one component stay in one (their Sim(3)s already share a global frame),
+// fused links to dropped submaps go.
+GlobalMap CopyWithout(const GlobalMap& map, const std::vector<SubmapKey>& drop);
+
+struct ManagerRunOptions {
+  IpcOptions ipc;
+  // A channel whose producer has not appeared after this long counts as
+  // finished (0: wait forever).
+  double wait_for_producers_s = 0;
+  // At most one rebuild per this many seconds while submaps keep arriving;
+  // the final one runs at exit regardless.
+  double rebuild_interval_s = 1.0;
+};
+
+// Result of RunManagerLoop.
+enum class ManagerExit { kProducersDone, kStopped, kNoProducer, kError };
+
+// Consumes the instance's front and back submap channels until both
+// producers closed them (clean exit; or died, or never appeared within
+// wait_for_producers_s) and the rings are drained, or *stop is set (signal).
+// Rebuilds as submaps arrive (rate-limited) and once more at the end.
+ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service, const std::atomic<bool>* stop);
+
+// The whole process configuration read from one YAML file: `manager:`,
+// `ipc:`, `log_level`; sections of the other processes (front, sampler, back,
+// camera) are tolerated unread. Unknown keys throw ConfigError (Finish).
+struct ManagerProcessConfig {
+  ManagerOptions manager;
+  IpcOptions ipc;
+  std::string log_level = "info";
+};
+void ReadManagerProcessConfig(ConfigSection& root, ManagerProcessConfig* c);
+
+}  // namespace rumi

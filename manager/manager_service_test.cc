@@ -1,0 +1,528 @@
+#include "manager/manager_service.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <thread>
+
+#include "common/timestamp.h"
+#include "manager/map_file.h"
+#include "manager/test_scenario.h"
+
+namespace rumi {
+namespace {
+namespace fs = std::filesystem;
+
+class TempDir {
+ public:
+  TempDir() {
+    static int n = 0;
+    path_ = fs::temp_directory_path() / ("rumi_mgrsvc_" + std::to_string(::getpid()) + "_" + std::to_string(n++));
+    fs::remove_all(path_);
+  }
+  ~TempDir() { fs::remove_all(path_); }
+  std::string str() const { return path_.string(); }
+  std::string operator/(const std::string& f) const { return (path_ / f).string(); }
+
+ private:
+  fs::path path_;
+};
+
+struct TumRow {
+  Timestamp t;
+  Eigen::Vector3d p;
+  Eigen::Quaterniond q;
+};
+
+std::vector<TumRow> ReadTum(const std::string& path) {
+  std::vector<TumRow> rows;
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line)) {
+    std::istringstream ss(line);
+    std::string t;
+    double v[7];
+    ss >> t >> v[0] >> v[1] >> v[2] >> v[3] >> v[4] >> v[5] >> v[6];
+    TumRow r;
+    EXPECT_TRUE(ParseSecondsToNs(t, &r.t)) << t;
+    r.p = {v[0], v[1], v[2]};
+    r.q = Eigen::Quaterniond(v[6], v[3], v[4], v[5]);
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+nlohmann::json ReadJson(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+// Frame index of every row (exact ns), and the position RMSE / max rotation
+// error against the truth after one Sim(3).
+void ExpectMatchesTruth(const testing::Scenario& s, const std::vector<TumRow>& rows, int first, int last) {
+  ASSERT_EQ(int(rows.size()), last - first + 1);
+  std::vector<Eigen::Vector3d> est, truth;
+  for (size_t i = 0; i < rows.size(); ++i) {
+    ASSERT_EQ(rows[i].t, s.scene.timestamps[first + i]) << i;
+    est.push_back(rows[i].p);
+    truth.push_back(s.scene.T_wc[first + i].translation());
+  }
+  const UmeyamaResult u = UmeyamaAlign(est, truth, true);
+  ASSERT_TRUE(u.ok);
+  EXPECT_LT(u.rmse, 0.03);  // 1 cm pose noise over ~11 m
+  double max_rot = 0;
+  for (size_t i = 0; i < rows.size(); ++i)
+    max_rot = std::max(max_rot, RotationAngle(u.transform.rotation() * rows[i].q *
+                                              s.scene.T_wc[first + i].rotation().conjugate()));
+  EXPECT_LT(max_rot, 0.015);  // catches a written quaternion in the wrong order / direction
+}
+
+// Front B of the scenario cut at `last_frame`: the same submap while it grows.
+Submap PartialFrontB(const testing::Scenario& s, uint32_t seed, int last_frame) {
+  SyntheticSubmapOptions c;
+  c.id = 2;
+  c.source = SubmapSource::kFront;
+  c.first_frame = 70;
+  c.last_frame = last_frame;
+  c.keyframe_step = 2;
+  c.S_lw = s.S_fbw;
+  c.max_octave = 3;
+  c.pose_noise_m = 0.01;
+  c.pose_noise_rad = 0.002;
+  c.point_id_offset = 3000000;
+  c.seed = seed * 11 + 6;
+  return MakeSyntheticSubmap(s.scene, c).submap;
+}
+
+ManagerServiceOptions Options(const TempDir& dir) {
+  ManagerServiceOptions o;
+  o.out_dir = dir.str();
+  return o;
+}
+
+TEST(ManagerService, FrontABackFrontBMergeIntoOneTrajectory) {
+  const auto s = testing::MakeScenario();
+  TempDir dir;
+  ManagerService svc(Options(dir));
+  std::string why;
+  ASSERT_TRUE(svc.Start(&why)) << why;
+  EXPECT_FALSE(svc.dirty());
+
+  svc.AddSubmap(s.front_a.submap);
+  EXPECT_TRUE(svc.dirty());
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_FALSE(svc.dirty());
+  EXPECT_EQ(svc.stats().merges, 0);
+  EXPECT_EQ(svc.stats().components, 1);
+  EXPECT_EQ(ReadTum(dir / "merged.txt").size(), 41u);  // front A: frames 0-40 tracked
+
+  svc.AddSubmap(s.back.submap);
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_EQ(svc.stats().merges, 1);
+  EXPECT_EQ(svc.stats().components, 1);
+  // A (0-40) + back (30-80): frames 0-80.
+  EXPECT_EQ(ReadTum(dir / "merged.txt").size(), 81u);
+
+  svc.AddSubmap(s.front_b.submap);
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  const ManagerStats& st = svc.stats();
+  EXPECT_EQ(st.merges, 2);
+  EXPECT_EQ(st.components, 1);
+  EXPECT_EQ(st.submaps_front, 2);
+  EXPECT_EQ(st.submaps_back, 1);
+  EXPECT_EQ(st.messages_front, 2);
+  EXPECT_EQ(st.messages_back, 1);
+  EXPECT_EQ(st.resends, 0);
+  EXPECT_EQ(st.rebuilds, 3);
+  EXPECT_EQ(st.saved_frames, 21 + 51 + 21);  // keyframes before culling
+  EXPECT_LT(st.saved_frames_postculled, st.saved_frames);  // the back duplicates the fronts
+  EXPECT_GE(st.saved_frames_postculled, 3);
+  EXPECT_EQ(st.trajectory_frames, 111);
+
+  // Every frame 0-110, matching the truth after one Sim(3): the culled
+  // keyframes left their poses.
+  const auto rows = ReadTum(dir / "merged.txt");
+  ExpectMatchesTruth(s, rows, 0, 110);
+  EXPECT_EQ(ReadTum(dir / "merged_0.txt").size(), 111u);
+  EXPECT_FALSE(fs::exists(dir / "merged_1.txt"));
+
+  const nlohmann::json j = ReadJson(dir / "manager_stats.json");
+  EXPECT_EQ(j["merges"], 2);
+  EXPECT_EQ(j["saved_frames"], 93);
+  EXPECT_EQ(j["saved_frames_postculled"], st.saved_frames_postculled);
+  EXPECT_EQ(j["submaps_front"], 2);
+  EXPECT_EQ(j["submaps_back"], 1);
+  EXPECT_EQ(j["components"], 1);
+  ASSERT_TRUE(j["merge_reports"].is_array());
+  int merged = 0;
+  for (const auto& r : j["merge_reports"]) merged += r["merged"].get<bool>() ? 1 : 0;
+  EXPECT_EQ(merged, 2);
+  ASSERT_EQ(j["component_list"].size(), 1u);
+  EXPECT_EQ(j["component_list"][0]["submaps"].size(), 3u);
+
+  // The map file holds the culled, merged map.
+  GlobalMap loaded;
+  ASSERT_TRUE(LoadGlobalMap(dir / "map.rumi", &loaded, &why)) << why;
+  EXPECT_EQ(loaded.size(), 3u);
+  int kfs = 0;
+  for (size_t i = 0; i < loaded.size(); ++i) kfs += int(loaded.submap(int(i)).keyframes.size());
+  EXPECT_EQ(kfs, st.saved_frames_postculled);
+
+  // A second service on the same folder reloads it and writes the same trajectory.
+  ManagerService again(Options(dir));
+  ASSERT_TRUE(again.Start(&why)) << why;
+  EXPECT_EQ(again.map().size(), 3u);
+  EXPECT_EQ(again.stats().base_submaps, 3);
+  EXPECT_EQ(again.stats().merges, 2);
+  EXPECT_EQ(again.stats().components, 1);
+  EXPECT_EQ(again.stats().saved_frames, 93);
+  EXPECT_EQ(again.stats().saved_frames_postculled, st.saved_frames_postculled);
+  EXPECT_FALSE(again.dirty());
+  fs::remove(dir / "merged.txt");
+  ASSERT_TRUE(again.WriteOutputs(&why)) << why;
+  const auto rows2 = ReadTum(dir / "merged.txt");
+  ASSERT_EQ(rows2.size(), rows.size());
+  for (size_t i = 0; i < rows.size(); ++i) {
+    EXPECT_EQ(rows2[i].t, rows[i].t);
+    EXPECT_LT((rows2[i].p - rows[i].p).norm(), 1e-9);
+  }
+  EXPECT_FALSE(fs::exists(dir / "map.rumi.bad"));
+  EXPECT_TRUE(fs::exists(dir / "map.rumi.raw"));
+}
+
+TEST(ManagerService, UnmergedSubmapsGetOneTrajectoryEach) {
+  const auto s = testing::MakeScenario();
+  TempDir dir;
+  ManagerService svc(Options(dir));
+  std::string why;
+  ASSERT_TRUE(svc.Start(&why)) << why;
+  svc.AddSubmap(s.front_a.submap);
+  svc.AddSubmap(s.front_b.submap);  // no back: nothing links them
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_EQ(svc.stats().components, 2);
+  EXPECT_EQ(svc.stats().merges, 0);
+  EXPECT_EQ(ReadTum(dir / "merged_0.txt").size(), 41u);
+  EXPECT_EQ(ReadTum(dir / "merged_1.txt").size(), 41u);
+  const auto a = ReadTum(dir / "merged_0.txt"), b = ReadTum(dir / "merged_1.txt");
+  // Equal keyframe counts: the lower map index (front A) comes first, as in merged.txt.
+  EXPECT_EQ(a.front().t, s.scene.timestamps[0]);
+  EXPECT_EQ(b.front().t, s.scene.timestamps[70]);
+  EXPECT_EQ(ReadTum(dir / "merged.txt").front().t, a.front().t);
+  // The back joins them into one: the stale merged_1.txt goes.
+  svc.AddSubmap(s.back.submap);
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_EQ(svc.stats().components, 1);
+  EXPECT_EQ(ReadTum(dir / "merged_0.txt").size(), 111u);
+  EXPECT_FALSE(fs::exists(dir / "merged_1.txt"));
+}
+
+TEST(ManagerService, ResentFrontSubmapReplacesTheEarlierVersion) {
+  const uint32_t seed = 3;
+  const auto s = testing::MakeScenario(seed);
+  TempDir dir;
+  ManagerService svc(Options(dir));
+  std::string why;
+  ASSERT_TRUE(svc.Start(&why)) << why;
+  svc.AddSubmap(s.front_a.submap);
+  svc.AddSubmap(s.back.submap);
+  svc.AddSubmap(PartialFrontB(s, seed, 85));  // B while it grows
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_EQ(svc.stats().merges, 2);
+  ExpectMatchesTruth(s, ReadTum(dir / "merged.txt"), 0, 85);
+
+  svc.AddSubmap(s.front_b.submap);  // B finished: same id, re-merged
+  EXPECT_TRUE(svc.dirty());
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_EQ(svc.stats().resends, 1);
+  EXPECT_EQ(svc.stats().messages_front, 3);
+  EXPECT_EQ(svc.stats().submaps_front, 2);  // replaced, not added
+  EXPECT_EQ(svc.stats().merges, 2);
+  EXPECT_EQ(svc.stats().saved_frames, 93);
+  ExpectMatchesTruth(s, ReadTum(dir / "merged.txt"), 0, 110);
+  const int b = svc.map().Find({SubmapSource::kFront, 2});
+  ASSERT_GE(b, 0);
+  EXPECT_EQ(svc.map().submap(b).frames.back().timestamp, s.scene.timestamps[110]);
+}
+
+TEST(ManagerService, ReloadedMapTakesNewSubmapsAndResends) {
+  const auto s = testing::MakeScenario();
+  TempDir dir;
+  std::string why;
+  {
+    ManagerService svc(Options(dir));
+    ASSERT_TRUE(svc.Start(&why)) << why;
+    svc.AddSubmap(s.front_a.submap);
+    svc.AddSubmap(s.back.submap);
+    ASSERT_TRUE(svc.Rebuild(&why)) << why;
+    EXPECT_EQ(svc.stats().merges, 1);
+  }
+  ManagerService svc(Options(dir));
+  ASSERT_TRUE(svc.Start(&why)) << why;
+  EXPECT_EQ(svc.stats().base_submaps, 2);
+  // Front A again (a restarted front) replaces the reloaded copy; B is new.
+  svc.AddSubmap(s.front_a.submap);
+  svc.AddSubmap(s.front_b.submap);
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_EQ(svc.map().size(), 3u);
+  EXPECT_EQ(svc.stats().submaps_front, 2);
+  EXPECT_EQ(svc.stats().submaps_back, 1);
+  EXPECT_EQ(svc.stats().components, 1);
+  EXPECT_EQ(svc.stats().merges, 2);
+  EXPECT_EQ(svc.stats().trajectory_frames, 111);
+}
+
+TEST(ManagerService, BadMapFileIsKeptAsideAndTheServiceStartsEmpty) {
+  const auto s = testing::MakeScenario();
+  TempDir dir;
+  std::string why;
+  fs::create_directories(dir.str());
+  {
+    std::ofstream out(dir / "map.rumi");
+    out << "this is not a rumi map";
+  }
+  ManagerService svc(Options(dir));
+  ASSERT_TRUE(svc.Start(&why)) << why;
+  EXPECT_EQ(svc.map().size(), 0u);
+  EXPECT_FALSE(fs::exists(dir / "map.rumi"));
+  ASSERT_TRUE(fs::exists(dir / "map.rumi.bad"));
+  EXPECT_EQ(fs::file_size(dir / "map.rumi.bad"), 22u);  // untouched
+  svc.AddSubmap(s.front_a.submap);
+  svc.AddSubmap(s.back.submap);
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+
+  // A truncated good file: moved to .bad.1 (the first .bad stays).
+  const auto size = fs::file_size(dir / "map.rumi");
+  fs::resize_file(dir / "map.rumi", size / 2);
+  ManagerService again(Options(dir));
+  ASSERT_TRUE(again.Start(&why)) << why;
+  EXPECT_EQ(again.map().size(), 0u);
+  EXPECT_EQ(fs::file_size(dir / "map.rumi.bad"), 22u);
+  ASSERT_TRUE(fs::exists(dir / "map.rumi.bad.1"));
+  EXPECT_EQ(fs::file_size(dir / "map.rumi.bad.1"), size / 2);
+  // The received submaps (map.rumi.raw) were intact: rebuilt from them.
+  EXPECT_TRUE(again.dirty());
+  ASSERT_TRUE(again.Rebuild(&why)) << why;
+  EXPECT_EQ(again.map().size(), 2u);
+  EXPECT_EQ(again.stats().merges, 1);
+  EXPECT_EQ(again.stats().trajectory_frames, 81);
+
+  // A bad raw file goes aside too; the (good) map file is still used.
+  fs::resize_file(dir / "map.rumi.raw", 100);
+  ManagerService third(Options(dir));
+  ASSERT_TRUE(third.Start(&why)) << why;
+  EXPECT_TRUE(fs::exists(dir / "map.rumi.raw.bad"));
+  EXPECT_EQ(third.map().size(), 2u);
+  EXPECT_EQ(third.stats().merges, 1);
+  EXPECT_FALSE(third.dirty());
+}
+
+TEST(ManagerService, MapFileWithoutRawSubmapsIsKeptAsABase) {
+  const auto s = testing::MakeScenario();
+  TempDir dir;
+  std::string why;
+  {
+    ManagerService svc(Options(dir));
+    ASSERT_TRUE(svc.Start(&why)) << why;
+    svc.AddSubmap(s.front_a.submap);
+    svc.AddSubmap(s.back.submap);
+    ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  }
+  fs::remove(dir / "map.rumi.raw");  // e.g. a map from elsewhere given with --map
+  ManagerService svc(Options(dir));
+  ASSERT_TRUE(svc.Start(&why)) << why;
+  EXPECT_FALSE(svc.dirty());
+  EXPECT_EQ(svc.stats().merges, 1);
+  svc.AddSubmap(s.front_b.submap);
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  // Nothing of the base is lost; its merge stays. (Whether B can still join
+  // depends on the back keyframes that survived culling: not checked.)
+  EXPECT_EQ(svc.map().size(), 3u);
+  EXPECT_TRUE(svc.map().Connected(svc.map().Find({SubmapSource::kFront, 1}), svc.map().Find({SubmapSource::kBack, 1})));
+  EXPECT_GE(svc.stats().merges, 1);
+  EXPECT_GE(svc.stats().trajectory_frames, 81);
+}
+
+TEST(ManagerService, MapPathOptionAndUnwritableOutput) {
+  const auto s = testing::MakeScenario();
+  TempDir dir, other;
+  fs::create_directories(other.str());
+  ManagerServiceOptions o = Options(dir);
+  o.map_path = other / "my.rumi";
+  ManagerService svc(o);
+  std::string why;
+  ASSERT_TRUE(svc.Start(&why)) << why;
+  svc.AddSubmap(s.front_a.submap);
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_TRUE(fs::exists(other / "my.rumi"));
+  EXPECT_FALSE(fs::exists(dir / "map.rumi"));
+
+  o.map_path = "/nonexistent-dir/x.rumi";
+  ManagerService bad(o);
+  ASSERT_TRUE(bad.Start(&why)) << why;
+  bad.AddSubmap(s.front_a.submap);
+  EXPECT_FALSE(bad.Rebuild(&why));
+  EXPECT_NE(why.find("/nonexistent-dir/x.rumi"), std::string::npos) << why;
+}
+
+TEST(ManagerService, InconsistentSubmapsAreRefusedAndCounted) {
+  const auto s = testing::MakeScenario();
+  std::string why;
+  EXPECT_TRUE(ValidateSubmap(s.front_a.submap, &why)) << why;
+  EXPECT_TRUE(ValidateSubmap(s.back.submap, &why)) << why;
+  std::vector<std::pair<std::string, Submap>> bad;
+  Submap m = s.front_a.submap;
+  m.keyframes[3].point_ids.pop_back();
+  bad.push_back({"point ids", m});
+  m = s.front_a.submap;
+  m.points[5].position.x() = std::nan("");
+  bad.push_back({"not finite", m});
+  m = s.front_a.submap;
+  m.keyframes[2].id = m.keyframes[1].id;
+  bad.push_back({"duplicate", m});
+  m = s.front_a.submap;
+  m.keyframes[0].octaves.resize(2);
+  bad.push_back({"octaves", m});
+  m = s.front_a.submap;
+  m.camera.fx = 0;
+  bad.push_back({"camera", m});
+  m = s.front_a.submap;
+  m.source = SubmapSource::kMerged;
+  bad.push_back({"source", m});
+  m = s.front_a.submap;
+  m.frames[4].T_wc.translation().y() = std::numeric_limits<double>::infinity();
+  bad.push_back({"frame record", m});
+
+  TempDir dir;
+  ManagerService svc(Options(dir));
+  ASSERT_TRUE(svc.Start(&why)) << why;
+  for (const auto& [what, sub] : bad) {
+    EXPECT_FALSE(ValidateSubmap(sub, &why)) << what;
+    EXPECT_NE(why.find(what), std::string::npos) << what << ": " << why;
+    EXPECT_FALSE(svc.AddSubmap(sub)) << what;
+  }
+  EXPECT_EQ(svc.stats().invalid_submaps, int64_t(bad.size()));
+  EXPECT_FALSE(svc.dirty());
+  EXPECT_TRUE(svc.AddSubmap(s.front_a.submap));
+  EXPECT_TRUE(svc.dirty());
+}
+
+TEST(ManagerService, CopyWithoutKeepsComponentsAndFusedLinks) {
+  const auto s = testing::MakeScenario();
+  GlobalMap map;
+  map.AddSubmap(s.front_a.submap);
+  map.AddSubmap(s.back.submap);
+  map.AddSubmap(s.front_b.submap);
+  MergeAll(&map, ManagerOptions());
+  ASSERT_TRUE(map.Connected(0, 2));
+  ASSERT_FALSE(map.fused().empty());
+  // Without the back, A and B still share the global frame: one component.
+  const GlobalMap c = CopyWithout(map, {{SubmapSource::kBack, 1}});
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_TRUE(c.Connected(0, 1));
+  EXPECT_EQ(c.ToGlobal(1).translation(), map.ToGlobal(2).translation());
+  EXPECT_EQ(c.submap(1).id, 2);
+  for (const auto& f : c.fused()) {  // every fused link involved the back
+    ADD_FAILURE() << f.dup << " " << f.kept;
+  }
+  const GlobalMap all = CopyWithout(map, {});
+  EXPECT_EQ(all.fused().size(), map.fused().size());
+  EXPECT_TRUE(all.Connected(0, 2));
+}
+
+TEST(ManagerService, ConfigToleratesOtherProcessesAndRefusesUnknownKeys) {
+  ManagerProcessConfig c;
+  ConfigSection ok = LoadConfigString(
+      "log_level: debug\n"
+      "manager:\n  search_n: 4\n"
+      "ipc:\n  submap_slots: 4\n"
+      "front:\n  anything: 1\n  nested:\n    deeper: 2\n"
+      "sampler:\n  inter: 5\n"
+      "back:\n  colmap: /usr/bin/colmap\n"
+      "camera:\n  fx: 1.0\n",
+      "ok.yaml");
+  ASSERT_NO_THROW(ReadManagerProcessConfig(ok, &c));
+  EXPECT_EQ(c.log_level, "debug");
+  EXPECT_EQ(c.manager.search_n, 4);
+  EXPECT_EQ(c.ipc.submap_slots, 4);
+
+  const auto error_of = [](const std::string& yaml) {
+    ManagerProcessConfig d;
+    ConfigSection root = LoadConfigString(yaml, "bad.yaml");
+    try {
+      ReadManagerProcessConfig(root, &d);
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  std::string e = error_of("manager:\n  serch_n: 4\n");
+  EXPECT_NE(e.find("bad.yaml"), std::string::npos) << e;
+  EXPECT_NE(e.find("manager.serch_n"), std::string::npos) << e;
+  e = error_of("mangaer:\n  search_n: 4\n");
+  EXPECT_NE(e.find("mangaer"), std::string::npos) << e;
+  e = error_of("ipc:\n  submap_slots: 0\n");
+  EXPECT_NE(e.find("ipc.submap_slots"), std::string::npos) << e;
+}
+
+TEST(ManagerService, LoopEndsWhenNoProducerAppearsOrOnStop) {
+  TempDir dir;
+  std::string why;
+  ManagerService svc(Options(dir));
+  ASSERT_TRUE(svc.Start(&why)) << why;
+  ManagerRunOptions run;
+  run.ipc.instance = "mgrsvc_" + std::to_string(::getpid());
+  run.wait_for_producers_s = 0.2;
+  EXPECT_EQ(RunManagerLoop(run, &svc, nullptr), ManagerExit::kNoProducer);
+  // Outputs exist even for an empty map.
+  EXPECT_TRUE(fs::exists(dir / "map.rumi"));
+  EXPECT_TRUE(fs::exists(dir / "merged.txt"));
+  EXPECT_EQ(ReadJson(dir / "manager_stats.json")["components"], 0);
+
+  run.wait_for_producers_s = 0;  // forever, but stopped
+  std::atomic<bool> stop{false};
+  std::thread t([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    stop = true;
+  });
+  EXPECT_EQ(RunManagerLoop(run, &svc, &stop), ManagerExit::kStopped);
+  t.join();
+}
+
+TEST(ManagerService, LoopConsumesInProcessProducers) {
+  const auto s = testing::MakeScenario();
+  TempDir dir;
+  std::string why;
+  ManagerService svc(Options(dir));
+  ASSERT_TRUE(svc.Start(&why)) << why;
+  ManagerRunOptions run;
+  run.ipc.instance = "mgrloop_" + std::to_string(::getpid());
+  run.ipc.submap_slot_bytes = 4 << 20;
+  run.rebuild_interval_s = 0;
+  run.wait_for_producers_s = 10;  // bounded if something goes wrong
+  ManagerExit result = ManagerExit::kError;
+  std::thread loop([&] { result = RunManagerLoop(run, &svc, nullptr); });
+  {
+    SubmapSender front(run.ipc, SubmapSource::kFront);
+    SubmapSender back(run.ipc, SubmapSource::kBack);
+    // Close only after the consumer attached: a closed segment is not attached to.
+    for (int i = 0; i < 500 && !(front.ring().Stats().consumer_alive && back.ring().Stats().consumer_alive); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    EXPECT_EQ(front.Send(s.front_a.submap), PushStatus::kOk);
+    EXPECT_EQ(back.Send(s.back.submap), PushStatus::kOk);
+    EXPECT_EQ(front.Send(s.front_b.submap), PushStatus::kOk);
+  }  // both close
+  loop.join();
+  EXPECT_EQ(result, ManagerExit::kProducersDone);
+  EXPECT_EQ(svc.stats().merges, 2);
+  EXPECT_EQ(svc.stats().trajectory_frames, 111);
+  ExpectMatchesTruth(s, ReadTum(dir / "merged.txt"), 0, 110);
+}
+
+}  // namespace
+}  // namespace rumi
