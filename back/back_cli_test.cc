@@ -1,0 +1,78 @@
+// The rumi-back executable end to end with a fake colmap (no COLMAP run):
+// exit codes, config errors and the files written.
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+class BackCliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const char* bin = std::getenv("RUMI_BIN_DIR");
+    exe_ = (fs::path(bin ? bin : RUMI_BINARY_DIR "/bin") / "rumi-back").string();
+    if (!fs::exists(exe_)) GTEST_SKIP() << "build rumi-back first: " << exe_;
+    dir_ = fs::temp_directory_path() / ("rumi_back_cli_test_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_ / "win" / "img");
+    std::ofstream idx(dir_ / "win" / "rgb.txt");
+    idx << "# timestamp filename\n";
+    for (int i = 0; i < 4; ++i) {
+      const std::string name = "img/" + std::to_string(i) + ".png";
+      cv::imwrite((dir_ / "win" / name).string(), cv::Mat(24, 32, CV_8UC1, cv::Scalar(40 * i)));
+      idx << "1341847980.72298" << i << " " << name << "\n";
+    }
+    const fs::path fake = dir_ / "colmap.sh";
+    std::ofstream(fake) << "#!/bin/sh\necho 'fake colmap failing' >&2\nexit 1\n";
+    ::chmod(fake.c_str(), 0755);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::string Config(const std::string& back) {
+    const fs::path p = dir_ / "config.yaml";
+    std::ofstream(p) << "camera: {width: 32, height: 24, fx: 30, fy: 30, cx: 15.5, cy: 11.5}\n"
+                     << "back: {colmap_path: " << (dir_ / "colmap.sh").string()
+                     << ", workspace_dir: " << (dir_ / "ws").string() << back << "}\n";
+    return p.string();
+  }
+  int Run(const std::string& args) {
+    const int rc = std::system((exe_ + " " + args + " > " + (dir_ / "out.log").string() + " 2>&1").c_str());
+    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+  }
+
+  std::string exe_;
+  fs::path dir_;
+};
+
+TEST_F(BackCliTest, ColmapFailureIsReportedInResultJson) {
+  const std::string out = (dir_ / "out").string();
+  EXPECT_EQ(Run("--window-dir " + (dir_ / "win").string() + " --config " + Config("") + " --out " + out), 4);
+  std::ifstream in(out + "/result.json");
+  ASSERT_TRUE(in.good());
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["status"], "colmap_failed");
+  EXPECT_NE(j["message"].get<std::string>().find("fake colmap failing"), std::string::npos);
+  EXPECT_EQ(j["num_frames"], 4);
+  EXPECT_TRUE(fs::is_empty(dir_ / "ws"));  // workspace cleaned
+}
+
+TEST_F(BackCliTest, BadConfigAndMissingInputs) {
+  const std::string win = " --window-dir " + (dir_ / "win").string() + " --out " + (dir_ / "o").string();
+  EXPECT_EQ(Run(win + " --config " + Config(", num_thread: 2")), 2);  // typo
+  EXPECT_EQ(Run(win + " --config " + Config(", matcher: fancy")), 2);
+  EXPECT_EQ(Run(win + " --config " + Config(", min_registered_images: 1")), 2);
+  EXPECT_EQ(Run("--window-dir " + (dir_ / "nowhere").string() + " --out " + (dir_ / "o").string() +
+                " --config " + Config("")),
+            1);
+  EXPECT_EQ(Run("--instance 0 --config " + Config("")), 3);  // not wired to ipc yet
+}
+
+}  // namespace

@@ -1,0 +1,31 @@
+#pragma once
+// Options of the back: how COLMAP is run on one sampled window and what is
+// kept of the result. Read from the `back:` section of a rumi config.
+#include <string>
+
+#include "common/config.h"
+
+namespace rumi {
+
+struct BackOptions {
+  std::string colmap_path = "colmap";  // executable (PATH lookup when no '/')
+  std::string workspace_dir;           // root of per-window workspaces; "" = $TMPDIR/rumi-back
+  bool keep_workspaces = false;        // keep each window's COLMAP folder (debugging)
+  int num_threads = 2;                 // per COLMAP step (extraction, matching, mapping)
+  int max_num_features = 2048;         // SIFT features per image
+  int sift_first_octave = 0;           // -1 upsamples (COLMAP default, slower); 0 is enough at VGA
+  std::string matcher = "exhaustive";  // "exhaustive" | "sequential" (by name = time order)
+  int sequential_overlap = 10;         // neighbours matched by the sequential matcher
+  double step_timeout_s = 600.0;       // per COLMAP step; the process group is killed after it
+  int min_registered_images = 3;       // smaller models are dropped (also Mapper.min_model_size)
+  int max_queue_windows = 2;           // windows waiting; the oldest is dropped beyond it
+  bool low_priority = true;            // SCHED_IDLE (or nice 19) for rumi-back and COLMAP
+
+  bool Check(std::string* why = nullptr) const;
+  // Resolved workspace root (workspace_dir or the default under $TMPDIR).
+  std::string WorkspaceRoot() const;
+};
+
+void ReadOptions(ConfigSection& s, BackOptions* o);
+
+}  // namespace rumi

@@ -1,0 +1,278 @@
+#include "back/back_submap_builder.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+
+#include "back/process_runner.h"
+#include "common/camera.h"
+#include "common/logging.h"
+
+namespace fs = std::filesystem;
+
+namespace rumi {
+
+const char* ToString(BackStatus s) {
+  switch (s) {
+    case BackStatus::kOk: return "ok";
+    case BackStatus::kInvalidWindow: return "invalid_window";
+    case BackStatus::kNoModel: return "no_model";
+    case BackStatus::kColmapFailed: return "colmap_failed";
+    case BackStatus::kTimeout: return "timeout";
+    case BackStatus::kCancelled: return "cancelled";
+    case BackStatus::kIoError: return "io_error";
+    case BackStatus::kModelError: return "model_error";
+  }
+  return "unknown";
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double Since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+std::string Num(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.17g", v);
+  return buf;
+}
+
+bool HasDistortion(const PinholeCameraOptions& c) {
+  return c.k1 != 0 || c.k2 != 0 || c.p1 != 0 || c.p2 != 0 || c.k3 != 0;
+}
+
+// Checks what COLMAP and the conversion rely on; "" when fine.
+std::string ValidateWindow(const ImageWindow& w, int min_frames) {
+  const PinholeCameraOptions& c = w.camera;
+  std::string why;
+  if (!c.Check(&why)) return "camera: " + why;
+  if (!(c.fx > 0 && c.fy > 0))
+    return "camera focal lengths must be positive for COLMAP (fx=" + Num(c.fx) + ", fy=" + Num(c.fy) + ")";
+  if (static_cast<int>(w.frames.size()) < min_frames)
+    return "window has " + std::to_string(w.frames.size()) + " frames, fewer than " +
+           std::to_string(min_frames);
+  for (size_t i = 0; i < w.frames.size(); ++i) {
+    const WindowFrame& f = w.frames[i];
+    if (f.timestamp < 0) return "frame " + std::to_string(i) + " has a negative timestamp";
+    if (i > 0 && f.timestamp <= w.frames[i - 1].timestamp)
+      return "timestamps not strictly increasing at frame " + std::to_string(i);
+    if (f.image.empty()) return "frame " + std::to_string(i) + " has no image";
+    if (f.image.depth() != CV_8U || (f.image.channels() != 1 && f.image.channels() != 3))
+      return "frame " + std::to_string(i) + " is not an 8-bit grey or BGR image";
+    if (f.image.cols != c.width || f.image.rows != c.height)
+      return "frame " + std::to_string(i) + " is " + std::to_string(f.image.cols) + "x" +
+             std::to_string(f.image.rows) + ", camera is " + std::to_string(c.width) + "x" +
+             std::to_string(c.height);
+  }
+  return "";
+}
+
+// Numbered model folders (sparse/0, sparse/1, ...) in numeric order.
+std::vector<fs::path> ModelFolders(const fs::path& sparse) {
+  std::vector<std::pair<long, fs::path>> found;
+  std::error_code ec;
+  for (fs::directory_iterator it(sparse, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string n = it->path().filename().string();
+    if (it->is_directory() && !n.empty() && std::all_of(n.begin(), n.end(), [](unsigned char ch) { return std::isdigit(ch) != 0; }))
+      found.emplace_back(std::stol(n), it->path());
+  }
+  std::sort(found.begin(), found.end());
+  std::vector<fs::path> out;
+  for (auto& f : found) out.push_back(f.second);
+  return out;
+}
+
+// Removes the workspace unless asked to keep it.
+class WorkspaceGuard {
+ public:
+  WorkspaceGuard(fs::path dir, bool keep) : dir_(std::move(dir)), keep_(keep) {}
+  ~WorkspaceGuard() {
+    if (keep_ || dir_.empty()) return;
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+    if (ec) spdlog::warn("cannot remove workspace {}: {}", dir_.string(), ec.message());
+  }
+
+ private:
+  fs::path dir_;
+  bool keep_;
+};
+
+}  // namespace
+
+BackSubmapBuilder::BackSubmapBuilder(const BackOptions& options, int64_t first_submap_id)
+    : options_(options), next_submap_id_(first_submap_id) {}
+
+BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic<bool>* cancel) {
+  const auto t_start = Clock::now();
+  BackResult res;
+  res.window_id = window.id;
+  res.num_frames = static_cast<int>(window.frames.size());
+  auto finish = [&](BackStatus s, std::string msg) -> BackResult {
+    res.status = s;
+    res.message = std::move(msg);
+    res.times.total_s = Since(t_start);
+    if (s == BackStatus::kOk)
+      spdlog::info("window {}: {} submap(s), {}/{} frames registered in {:.1f} s", res.window_id,
+                   res.submaps.size(), res.num_registered, res.num_frames, res.times.total_s);
+    else
+      spdlog::warn("window {}: {}: {}", res.window_id, ToString(s), res.message);
+    return res;
+  };
+
+  std::string why;
+  if (!options_.Check(&why)) return finish(BackStatus::kInvalidWindow, "back options: " + why);
+  why = ValidateWindow(window, options_.min_registered_images);
+  if (!why.empty()) return finish(BackStatus::kInvalidWindow, why);
+
+  // Per-window workspace: unique per process and call, removed on every exit path.
+  const fs::path ws = fs::path(options_.WorkspaceRoot()) /
+                      ("window_" + std::to_string(window.id) + "_" + std::to_string(getpid()) +
+                       "_" + std::to_string(workspace_counter_++));
+  const fs::path images = ws / "images", sparse = ws / "sparse", db = ws / "database.db",
+                 log = ws / "colmap.log";
+  std::error_code ec;
+  fs::remove_all(ws, ec);
+  fs::create_directories(images, ec);
+  if (!ec) fs::create_directories(sparse, ec);
+  if (ec) return finish(BackStatus::kIoError, "cannot create workspace " + ws.string() + ": " + ec.message());
+  WorkspaceGuard guard(ws, options_.keep_workspaces);
+  if (options_.keep_workspaces) res.workspace = ws.string();
+
+  // Undistorted images named by timestamp: name order = time order.
+  auto t0 = Clock::now();
+  {
+    const bool undistort = HasDistortion(window.camera);
+    PinholeCamera camera(window.camera);
+    for (const WindowFrame& f : window.frames) {
+      const cv::Mat img = undistort ? camera.UndistortImage(f.image) : f.image;
+      const fs::path p = images / ColmapImageName(f.timestamp);
+      bool written = false;
+      try {
+        written = cv::imwrite(p.string(), img);
+      } catch (const cv::Exception& e) {
+        why = e.what();
+      }
+      if (!written) return finish(BackStatus::kIoError, "cannot write " + p.string() + " " + why);
+    }
+  }
+  res.times.undistort_write_s = Since(t0);
+
+  const std::string threads = std::to_string(options_.num_threads);
+  const PinholeCameraOptions& c = window.camera;
+  // COLMAP puts the top-left pixel's centre at (0.5, 0.5): shift cx, cy.
+  const std::string params = Num(c.fx) + "," + Num(c.fy) + "," + Num(c.cx + kColmapPixelOffset) +
+                             "," + Num(c.cy + kColmapPixelOffset);
+  struct Step {
+    const char* name;
+    std::vector<std::string> args;
+    double* seconds;
+    double* cpu_seconds;
+  };
+  std::vector<Step> steps;
+  steps.push_back({"feature_extraction",
+                   {"feature_extractor", "--database_path", db.string(), "--image_path",
+                    images.string(), "--ImageReader.camera_model", "PINHOLE",
+                    "--ImageReader.single_camera", "1", "--ImageReader.camera_params", params,
+                    "--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads", threads,
+                    "--SiftExtraction.max_num_features", std::to_string(options_.max_num_features),
+                    "--SiftExtraction.first_octave", std::to_string(options_.sift_first_octave)},
+                   &res.times.feature_extraction_s, &res.times.feature_extraction_cpu_s});
+  if (options_.matcher == "sequential") {
+    steps.push_back({"matching",
+                     {"sequential_matcher", "--database_path", db.string(),
+                      "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads", threads,
+                      "--SequentialMatching.overlap", std::to_string(options_.sequential_overlap)},
+                     &res.times.matching_s, &res.times.matching_cpu_s});
+  } else {
+    steps.push_back({"matching",
+                     {"exhaustive_matcher", "--database_path", db.string(),
+                      "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads", threads},
+                     &res.times.matching_s, &res.times.matching_cpu_s});
+  }
+  steps.push_back({"mapping",
+                   {"mapper", "--database_path", db.string(), "--image_path", images.string(),
+                    "--output_path", sparse.string(), "--Mapper.num_threads", threads,
+                    "--Mapper.ba_refine_focal_length", "0", "--Mapper.ba_refine_principal_point",
+                    "0", "--Mapper.ba_refine_extra_params", "0", "--Mapper.min_model_size",
+                    std::to_string(options_.min_registered_images)},
+                   &res.times.mapping_s, &res.times.mapping_cpu_s});
+
+  for (Step& step : steps) {
+    RunRequest req;
+    req.argv.push_back(options_.colmap_path);
+    req.argv.insert(req.argv.end(), step.args.begin(), step.args.end());
+    req.log_path = log.string();
+    req.timeout_s = options_.step_timeout_s;
+    req.low_priority = options_.low_priority;
+    req.cancel = cancel;
+    spdlog::debug("window {}: colmap {}", window.id, step.args[0]);
+    const RunResult r = RunProcess(req);
+    *step.seconds = r.seconds;
+    *step.cpu_seconds = r.cpu_seconds;
+    if (r.status != RunStatus::kOk) {
+      const std::string msg = std::string(step.name) + ": " + r.message;
+      switch (r.status) {
+        case RunStatus::kTimeout: return finish(BackStatus::kTimeout, msg);
+        case RunStatus::kCancelled: return finish(BackStatus::kCancelled, msg);
+        default: return finish(BackStatus::kColmapFailed, msg);
+      }
+    }
+  }
+
+  // Every model folder -> one submap; the largest first.
+  t0 = Clock::now();
+  struct Built {
+    Submap submap;
+    BackSubmapStats stats;
+  };
+  std::vector<Built> built;
+  const std::vector<fs::path> models = ModelFolders(sparse);
+  for (const fs::path& dir : models) {
+    ColmapModel model;
+    if (!ReadColmapModelBinary(dir.string(), &model, &why))
+      return finish(BackStatus::kModelError, "reading model: " + why);
+    Built b;
+    if (!ColmapModelToSubmap(model, -1, &b.submap, &b.stats, &why))
+      return finish(BackStatus::kModelError, dir.string() + ": " + why);
+    // The intrinsics were fixed: a change means the flags or the shift are wrong.
+    const CameraIntrinsics& k = b.submap.camera;
+    if (std::abs(k.fx - c.fx) > 1e-6 * c.fx || std::abs(k.fy - c.fy) > 1e-6 * c.fy ||
+        std::abs(k.cx - c.cx) > 1e-6 || std::abs(k.cy - c.cy) > 1e-6 || k.width != c.width ||
+        k.height != c.height) {
+      return finish(BackStatus::kModelError, dir.string() + ": COLMAP changed the fixed intrinsics");
+    }
+    if (b.stats.registered_images < options_.min_registered_images) {
+      res.warnings.push_back(dir.filename().string() + ": dropped, " +
+                             std::to_string(b.stats.registered_images) + " registered images");
+      continue;
+    }
+    built.push_back(std::move(b));
+  }
+  std::stable_sort(built.begin(), built.end(), [](const Built& a, const Built& b) {
+    return a.stats.registered_images > b.stats.registered_images;
+  });
+  for (Built& b : built) {
+    b.submap.id = next_submap_id_++;
+    res.num_registered += b.stats.registered_images;
+    res.submaps.push_back(std::move(b.submap));
+    res.stats.push_back(b.stats);
+  }
+  res.times.read_convert_s = Since(t0);
+  for (const std::string& w : res.warnings) spdlog::info("window {}: {}", window.id, w);
+  if (res.submaps.empty()) {
+    return finish(BackStatus::kNoModel,
+                  models.empty() ? "mapper produced no model (no initial pair?)"
+                                 : "all models smaller than min_registered_images");
+  }
+  return finish(BackStatus::kOk, "");
+}
+
+}  // namespace rumi

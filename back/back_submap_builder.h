@@ -1,0 +1,73 @@
+#pragma once
+// The core of rumi-back, independent of any transport: one ImageWindow in,
+// zero or more back submaps (source kBack) or a failure report out. Runs the
+// COLMAP CLI (feature_extractor, matcher, mapper) in a per-window workspace
+// with fixed PINHOLE intrinsics and reads the binary models back.
+#include <atomic>
+#include <string>
+#include <vector>
+
+#include "back/back_options.h"
+#include "back/model_to_submap.h"
+#include "common/submap.h"
+#include "common/window.h"
+
+namespace rumi {
+
+enum class BackStatus {
+  kOk,             // at least one submap
+  kInvalidWindow,  // bad input (too few frames, wrong image size, bad timestamps)
+  kNoModel,        // COLMAP ran but registered no model big enough
+  kColmapFailed,   // a step exited non-zero or could not be started
+  kTimeout,        // a step ran past step_timeout_s (its process group was killed)
+  kCancelled,
+  kIoError,        // workspace or image writing
+  kModelError,     // a model could not be read or converted
+};
+const char* ToString(BackStatus s);
+
+struct BackStepTimes {
+  double undistort_write_s = 0;
+  double feature_extraction_s = 0;
+  double matching_s = 0;
+  double mapping_s = 0;
+  double read_convert_s = 0;
+  double total_s = 0;
+  // CPU seconds (user + system) of the COLMAP steps: comparable across loads.
+  double feature_extraction_cpu_s = 0;
+  double matching_cpu_s = 0;
+  double mapping_cpu_s = 0;
+};
+
+struct BackResult {
+  int64_t window_id = -1;
+  BackStatus status = BackStatus::kInvalidWindow;
+  std::string message;                 // empty or the reason for a non-ok status
+  std::vector<std::string> warnings;   // e.g. models dropped as too small
+  std::vector<Submap> submaps;         // one per COLMAP model kept, largest first
+  std::vector<BackSubmapStats> stats;  // parallel to submaps
+  int num_frames = 0;
+  int num_registered = 0;              // over all kept submaps
+  BackStepTimes times;
+  std::string workspace;               // path when kept, else ""
+  bool ok() const { return status == BackStatus::kOk; }
+};
+
+class BackSubmapBuilder {
+ public:
+  // Submap ids are handed out from first_submap_id upwards.
+  explicit BackSubmapBuilder(const BackOptions& options, int64_t first_submap_id = 0);
+
+  // Never throws on bad input or COLMAP trouble: everything ends in the result.
+  // cancel (optional) is polled while COLMAP runs.
+  BackResult Build(const ImageWindow& window, const std::atomic<bool>* cancel = nullptr);
+
+  const BackOptions& options() const { return options_; }
+
+ private:
+  BackOptions options_;
+  int64_t next_submap_id_;
+  int64_t workspace_counter_ = 0;
+};
+
+}  // namespace rumi

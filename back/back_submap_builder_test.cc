@@ -1,0 +1,303 @@
+// BackSubmapBuilder against fake `colmap` executables (shell scripts written
+// here): failures, hangs, empty output and canned models, without COLMAP.
+#include "back/back_submap_builder.h"
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <sys/stat.h>
+
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <iterator>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace rumi {
+namespace {
+
+// Writes a minimal binary model (PINHOLE camera, images named by timestamp,
+// one point seen by all images) into dir.
+void WriteCannedModel(const fs::path& dir, const PinholeCameraOptions& c,
+                      const std::vector<Timestamp>& stamps) {
+  fs::create_directories(dir);
+  auto put = [](std::ofstream& o, auto v) { o.write(reinterpret_cast<const char*>(&v), sizeof(v)); };
+  {
+    std::ofstream o(dir / "cameras.bin", std::ios::binary);
+    put(o, uint64_t{1});
+    put(o, uint32_t{1});
+    put(o, int32_t{1});
+    put(o, uint64_t(c.width));
+    put(o, uint64_t(c.height));
+    for (double v : {c.fx, c.fy, c.cx + 0.5, c.cy + 0.5}) put(o, v);
+  }
+  {
+    std::ofstream o(dir / "images.bin", std::ios::binary);
+    put(o, uint64_t(stamps.size()));
+    for (size_t i = 0; i < stamps.size(); ++i) {
+      put(o, uint32_t(i + 1));
+      for (double v : {1.0, 0.0, 0.0, 0.0, -0.1 * double(i), 0.0, 0.0}) put(o, v);
+      put(o, uint32_t{1});
+      const std::string name = TimestampFileStem(stamps[i]) + ".png";
+      o.write(name.c_str(), static_cast<std::streamsize>(name.size() + 1));
+      put(o, uint64_t{1});
+      for (double v : {100.5, 50.5}) put(o, v);
+      put(o, uint64_t{7});
+    }
+  }
+  {
+    std::ofstream o(dir / "points3D.bin", std::ios::binary);
+    put(o, uint64_t{1});
+    put(o, uint64_t{7});
+    for (double v : {0.0, 0.0, 5.0}) put(o, v);
+    for (uint8_t v : {1, 2, 3}) put(o, v);
+    put(o, 0.5);
+    put(o, uint64_t(stamps.size()));
+    for (size_t i = 0; i < stamps.size(); ++i) {
+      put(o, uint32_t(i + 1));
+      put(o, uint32_t{0});
+    }
+  }
+}
+
+class BackSubmapBuilderTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    root_ = fs::temp_directory_path() /
+            ("rumi_back_builder_test_" + std::to_string(::getpid()) + "_" +
+             ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(root_);
+    fs::create_directories(root_);
+    options_.workspace_dir = (root_ / "ws").string();
+    options_.step_timeout_s = 20;
+    window_.id = 12;
+    window_.camera.width = 64;
+    window_.camera.height = 48;
+    window_.camera.fx = 50;
+    window_.camera.fy = 52;
+    window_.camera.cx = 31.5;
+    window_.camera.cy = 23.25;
+    for (int i = 0; i < 5; ++i) {
+      WindowFrame f;
+      f.timestamp = 1341847980722988001LL + 33333333LL * i;
+      f.image = cv::Mat(48, 64, CV_8UC1, cv::Scalar(10 * i));
+      window_.frames.push_back(f);
+    }
+  }
+  void TearDown() override { fs::remove_all(root_); }
+
+  // A fake colmap: logs its arguments, then runs `body` with $1 = command.
+  std::string FakeColmap(const std::string& body) {
+    const fs::path p = root_ / "fake_colmap.sh";
+    std::ofstream(p) << "#!/bin/sh\necho \"$@\" >> " << (root_ / "args.txt").string() << "\n"
+                     << "cmd=$1\nout=''\nwhile [ $# -gt 0 ]; do\n"
+                     << "  if [ \"$1\" = --output_path ]; then out=$2; fi\n  shift\ndone\n"
+                     << body << "\n";
+    ::chmod(p.c_str(), 0755);
+    return p.string();
+  }
+  std::string Args() const {
+    std::ifstream in(root_ / "args.txt");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  }
+  bool WorkspaceEmpty() const {
+    return !fs::exists(options_.workspace_dir) || fs::is_empty(options_.workspace_dir);
+  }
+
+  fs::path root_;
+  BackOptions options_;
+  ImageWindow window_;
+};
+
+TEST_F(BackSubmapBuilderTest, FailingStepIsReportedAndWorkspaceRemoved) {
+  options_.colmap_path = FakeColmap(
+      "if [ $cmd = exhaustive_matcher ]; then echo 'ERROR: database locked' >&2; exit 1; fi");
+  BackSubmapBuilder b(options_);
+  const BackResult r = b.Build(window_);
+  EXPECT_EQ(r.status, BackStatus::kColmapFailed);
+  EXPECT_NE(r.message.find("matching"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("database locked"), std::string::npos) << r.message;
+  EXPECT_TRUE(r.submaps.empty());
+  EXPECT_TRUE(WorkspaceEmpty());
+  // The mapper never ran.
+  EXPECT_EQ(Args().find("mapper"), std::string::npos);
+}
+
+TEST_F(BackSubmapBuilderTest, HangingStepTimesOut) {
+  options_.colmap_path = FakeColmap("if [ $cmd = mapper ]; then sleep 60; fi");
+  options_.step_timeout_s = 0.5;
+  BackSubmapBuilder b(options_);
+  const BackResult r = b.Build(window_);
+  EXPECT_EQ(r.status, BackStatus::kTimeout);
+  EXPECT_NE(r.message.find("mapping"), std::string::npos) << r.message;
+  EXPECT_GE(r.times.mapping_s, 0.5);
+  EXPECT_LT(r.times.mapping_s, 30.0);  // killed, not waited for
+  EXPECT_TRUE(WorkspaceEmpty());
+}
+
+TEST_F(BackSubmapBuilderTest, MissingColmapIsReported) {
+  options_.colmap_path = (root_ / "no_such_colmap").string();
+  BackSubmapBuilder b(options_);
+  const BackResult r = b.Build(window_);
+  EXPECT_EQ(r.status, BackStatus::kColmapFailed);
+  EXPECT_NE(r.message.find("no_such_colmap"), std::string::npos) << r.message;
+  EXPECT_TRUE(WorkspaceEmpty());
+}
+
+TEST_F(BackSubmapBuilderTest, NoModelIsReported) {
+  options_.colmap_path = FakeColmap("exit 0");
+  BackSubmapBuilder b(options_);
+  const BackResult r = b.Build(window_);
+  EXPECT_EQ(r.status, BackStatus::kNoModel);
+  EXPECT_TRUE(WorkspaceEmpty());
+}
+
+TEST_F(BackSubmapBuilderTest, InvalidWindowsAreRefused) {
+  options_.colmap_path = FakeColmap("exit 0");
+  BackSubmapBuilder b(options_);
+  ImageWindow w = window_;
+  w.frames.resize(2);  // below min_registered_images
+  EXPECT_EQ(b.Build(w).status, BackStatus::kInvalidWindow);
+  w = window_;
+  w.frames[3].timestamp = w.frames[2].timestamp;
+  BackResult r = b.Build(w);
+  EXPECT_EQ(r.status, BackStatus::kInvalidWindow);
+  EXPECT_NE(r.message.find("increasing"), std::string::npos) << r.message;
+  w = window_;
+  w.frames[1].image = cv::Mat(47, 64, CV_8UC1);
+  EXPECT_EQ(b.Build(w).status, BackStatus::kInvalidWindow);
+  w = window_;
+  w.frames[0].image = cv::Mat();
+  EXPECT_EQ(b.Build(w).status, BackStatus::kInvalidWindow);
+  // Nothing was started for an invalid window.
+  EXPECT_EQ(Args(), "");
+}
+
+TEST_F(BackSubmapBuilderTest, ModelsBecomeSubmapsAndArgumentsAreRight) {
+  // Model 0: 3 frames; model 1: 4 frames; model 2: 2 frames (below the minimum).
+  std::vector<Timestamp> t;
+  for (const auto& f : window_.frames) t.push_back(f.timestamp);
+  const fs::path canned = root_ / "canned";
+  WriteCannedModel(canned / "0", window_.camera, {t[0], t[1], t[2]});
+  WriteCannedModel(canned / "1", window_.camera, {t[1], t[2], t[3], t[4]});
+  WriteCannedModel(canned / "2", window_.camera, {t[3], t[4]});
+  options_.colmap_path = FakeColmap(
+      "if [ $cmd = feature_extractor ]; then ls " + (root_ / "ws").string() +
+      "/*/images > " + (root_ / "names.txt").string() +
+      "; fi\nif [ $cmd = mapper ]; then cp -r " + canned.string() + "/* $out/; fi");
+  options_.keep_workspaces = true;
+  BackSubmapBuilder b(options_, /*first_submap_id=*/100);
+  const BackResult r = b.Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  EXPECT_EQ(r.window_id, 12);
+  ASSERT_EQ(r.submaps.size(), 2u);
+  // Largest model first; ids handed out in that order.
+  EXPECT_EQ(r.submaps[0].keyframes.size(), 4u);
+  EXPECT_EQ(r.submaps[0].id, 100);
+  EXPECT_EQ(r.submaps[1].id, 101);
+  EXPECT_EQ(r.submaps[0].source, SubmapSource::kBack);
+  EXPECT_EQ(r.submaps[0].keyframes.front().timestamp, t[1]);  // exact ns
+  EXPECT_EQ(r.submaps[1].keyframes.back().timestamp, t[2]);
+  EXPECT_EQ(r.num_registered, 7);
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_NE(r.warnings[0].find("2 registered"), std::string::npos) << r.warnings[0];
+  EXPECT_DOUBLE_EQ(r.submaps[0].camera.cx, 31.5);
+  EXPECT_DOUBLE_EQ(r.submaps[0].camera.cy, 23.25);
+  EXPECT_FLOAT_EQ(r.submaps[0].keyframes[0].keypoints[0].x(), 100.0f);
+
+  // Images handed to COLMAP are named by zero-padded timestamps.
+  std::ifstream names(root_ / "names.txt");
+  std::vector<std::string> listed((std::istream_iterator<std::string>(names)), {});
+  ASSERT_EQ(listed.size(), 5u);
+  for (size_t i = 0; i < 5; ++i) EXPECT_EQ(listed[i], TimestampFileStem(t[i]) + ".png");
+
+  // The COLMAP command lines: CPU only, fixed PINHOLE intrinsics with the
+  // half-pixel shift, bounded threads and features, intrinsics not refined.
+  const std::string args = Args();
+  for (const char* want :
+       {"--SiftExtraction.use_gpu 0", "--SiftMatching.use_gpu 0", "--ImageReader.camera_model PINHOLE",
+        "--ImageReader.single_camera 1", "--ImageReader.camera_params 50,52,32,23.75",
+        "--SiftExtraction.num_threads 2", "--SiftExtraction.max_num_features 2048",
+        "--SiftMatching.num_threads 2", "--Mapper.num_threads 2", "--Mapper.ba_refine_focal_length 0",
+        "--Mapper.ba_refine_principal_point 0", "--Mapper.ba_refine_extra_params 0",
+        "--Mapper.min_model_size 3", "exhaustive_matcher"}) {
+    EXPECT_NE(args.find(want), std::string::npos) << want << "\nin:\n" << args;
+  }
+  // Workspace kept on request.
+  ASSERT_FALSE(r.workspace.empty());
+  EXPECT_TRUE(fs::exists(fs::path(r.workspace) / "colmap.log"));
+}
+
+TEST_F(BackSubmapBuilderTest, DistortedImagesAreUndistortedBeforeColmap) {
+  window_.camera.k1 = -0.3;
+  window_.camera.p2 = 0.01;
+  cv::Mat pattern(48, 64, CV_8UC1);
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 64; ++x) pattern.at<uint8_t>(y, x) = static_cast<uint8_t>(((x / 4 + y / 4) % 2) * 200 + 20);
+  for (auto& f : window_.frames) f.image = pattern.clone();
+  options_.colmap_path = FakeColmap("exit 0");
+  options_.keep_workspaces = true;
+  BackSubmapBuilder b(options_);
+  const BackResult r = b.Build(window_);
+  EXPECT_EQ(r.status, BackStatus::kNoModel);
+  ASSERT_FALSE(r.workspace.empty());
+  const cv::Mat written = cv::imread(
+      (fs::path(r.workspace) / "images" / (TimestampFileStem(window_.frames[2].timestamp) + ".png")).string(),
+      cv::IMREAD_UNCHANGED);
+  ASSERT_FALSE(written.empty());
+  const cv::Mat expected = PinholeCamera(window_.camera).UndistortImage(pattern);
+  EXPECT_EQ(cv::norm(written, expected, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(written, pattern, cv::NORM_L1), 1000.0);  // really remapped
+}
+
+TEST_F(BackSubmapBuilderTest, ChangedIntrinsicsAreAnError) {
+  PinholeCameraOptions other = window_.camera;
+  other.fx += 1.0;
+  std::vector<Timestamp> t;
+  for (const auto& f : window_.frames) t.push_back(f.timestamp);
+  WriteCannedModel(root_ / "canned" / "0", other, t);
+  options_.colmap_path =
+      FakeColmap("if [ $cmd = mapper ]; then cp -r " + (root_ / "canned").string() + "/* $out/; fi");
+  BackSubmapBuilder b(options_);
+  const BackResult r = b.Build(window_);
+  EXPECT_EQ(r.status, BackStatus::kModelError);
+  EXPECT_NE(r.message.find("intrinsics"), std::string::npos) << r.message;
+  EXPECT_TRUE(WorkspaceEmpty());
+}
+
+TEST(BackOptionsTest, ReadAndCheck) {
+  BackOptions o;
+  EXPECT_TRUE(o.Check());
+  ConfigSection s = LoadConfigString(
+      "back: {num_threads: 1, max_num_features: 1024, matcher: sequential, step_timeout_s: 30}");
+  ConfigSection b = s.Child("back");
+  ReadOptions(b, &o);
+  EXPECT_EQ(o.num_threads, 1);
+  EXPECT_EQ(o.max_num_features, 1024);
+  EXPECT_EQ(o.matcher, "sequential");
+  EXPECT_EQ(o.step_timeout_s, 30.0);
+  EXPECT_NO_THROW(b.Finish());
+
+  for (const char* bad : {"back: {matcher: fancy}", "back: {num_threads: 0}", "back: {num_threads: x}",
+                          "back: {step_timeout_s: -1}", "back: {max_queue_windows: 0}"}) {
+    BackOptions o2;
+    ConfigSection s2 = LoadConfigString(bad);
+    ConfigSection b2 = s2.Child("back");
+    EXPECT_THROW(ReadOptions(b2, &o2), ConfigError) << bad;
+  }
+  ConfigSection s3 = LoadConfigString("back: {num_thread: 2}");
+  ConfigSection b3 = s3.Child("back");
+  BackOptions o3;
+  ReadOptions(b3, &o3);
+  EXPECT_THROW(b3.Finish(), ConfigError);  // typo
+  o3.min_registered_images = 1;
+  std::string why;
+  EXPECT_FALSE(o3.Check(&why));
+  EXPECT_NE(why.find("min_registered_images"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace rumi
