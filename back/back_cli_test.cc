@@ -48,6 +48,11 @@ class BackCliTest : public ::testing::Test {
     return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
   }
 
+  std::string Log() const {
+    std::ifstream in(dir_ / "out.log");
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  }
+
   std::string exe_;
   fs::path dir_;
 };
@@ -72,7 +77,12 @@ TEST_F(BackCliTest, BadConfigAndMissingInputs) {
   EXPECT_EQ(Run("--window-dir " + (dir_ / "nowhere").string() + " --out " + (dir_ / "o").string() +
                 " --config " + Config("")),
             1);
-  EXPECT_EQ(Run("--instance 0 --config " + Config("")), 3);  // not wired to ipc yet
+  // Top-level typo (not a section of any process) -> 2; other processes' sections are fine.
+  const std::string typo = Config("");
+  std::ofstream(typo, std::ios::app) << "front: {x: 1}\nlog_levle: debug\n";
+  EXPECT_EQ(Run(win + " --config " + typo), 2);
+  EXPECT_NE(Log().find("log_levle"), std::string::npos) << Log();
+  EXPECT_EQ(Run("--instance 0 --config " + Config("")), 2);  // shared-memory mode needs --work
 }
 
 }  // namespace

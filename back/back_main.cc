@@ -1,12 +1,16 @@
 // rumi-back: turns sampled image windows into back submaps with COLMAP.
 //   rumi-back --window-dir DIR --config FILE --out DIR [--bench] [--groundtruth FILE]
-// processes one window stored as a folder. The shared-memory mode
-// (--instance ID) is the integration point for ipc/ (see TODO below).
+// processes one window stored as a folder;
+//   rumi-back --instance ID [--config FILE] --work DIR
+// is the shared-memory mode of `rumi eval run` (back_ipc_main.h, docs/back.md).
 #include <CLI/CLI.hpp>
 
+#include <atomic>
+#include <csignal>
 #include <cstdio>
 #include <fstream>
 
+#include "back/back_ipc_main.h"
 #include "back/back_options.h"
 #include "back/back_result_io.h"
 #include "back/back_submap_builder.h"
@@ -37,18 +41,28 @@ void PrintAte(const Submap& s, const Trajectory& gt) {
   }
 }
 
+std::atomic<bool> g_stop{false};
+void OnSignal(int) { g_stop.store(true); }
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"rumi-back: COLMAP-built back submaps from sampled image windows"};
-  std::string window_dir, config_path, out_dir, gt_path, log_level = "info";
-  int64_t instance = -1;
+  std::string window_dir, config_path, out_dir, gt_path, log_level, instance, work_dir;
+  double wait_for_producer_s = 0.0, wait_for_consumer_s = 30.0;
   bool bench = false, keep = false;
   WindowDirOptions wd;
   app.add_option("--window-dir", window_dir, "folder with rgb.txt-style index and images");
   app.add_option("--config", config_path, "rumi config with camera: and back: sections")->check(CLI::ExistingFile);
   app.add_option("--out", out_dir, "output folder (result.json, submap_<id>.json, submap_<id>_tum.txt)");
-  app.add_option("--instance", instance, "rumi instance id: read windows from shared memory (not yet)");
+  app.add_option("--instance", instance, "rumi instance id: windows from shared memory (rumi_<ID>_windows)");
+  app.add_option("--work", work_dir, "shared-memory mode: folder for back_stats.json");
+  app.add_option("--wait-for-producer", wait_for_producer_s,
+                 "shared-memory mode: no window producer after this many seconds -> done (0: wait forever)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--wait-for-consumer", wait_for_consumer_s,
+                 "shared-memory mode: before closing, wait up to this long for the manager to read all submaps")
+      ->check(CLI::NonNegativeNumber);
   app.add_flag("--bench", bench, "print the time split per COLMAP step");
   app.add_option("--groundtruth", gt_path, "TUM ground truth: print ATE (Sim3) per submap");
   app.add_option("--first", wd.first, "first listed frame used")->check(CLI::NonNegativeNumber);
@@ -56,12 +70,13 @@ int main(int argc, char** argv) {
   app.add_option("--step", wd.step, "use every step-th frame")->check(CLI::PositiveNumber);
   app.add_option("--scale", wd.scale, "resize images and camera by this factor")->check(CLI::PositiveNumber);
   app.add_flag("--keep-workspace", keep, "keep the COLMAP workspace (overrides back.keep_workspaces)");
-  app.add_option("--log-level", log_level, "trace|debug|info|warn|error|off");
+  app.add_option("--log-level", log_level, "trace|debug|info|warn|error|off (overrides the config)");
   CLI11_PARSE(app, argc, argv);
-  if (!SetupLogging("back", log_level)) spdlog::warn("unknown log level '{}'", log_level);
 
   BackOptions options;
   PinholeCameraOptions camera;
+  IpcOptions ipc;
+  std::string config_log_level = "info";
   bool have_camera = false;
   try {
     if (!config_path.empty()) {
@@ -70,30 +85,55 @@ int main(int argc, char** argv) {
       ReadOptions(back, &options);
       CheckOptions(options, root, "back");
       back.Finish();
-      if (root.Has("camera")) {
+      if (root.Has("camera")) {  // file mode needs it; a window over ipc carries its camera
         ConfigSection cs = root.Child("camera");
         ReadOptions(cs, &camera);
         cs.Finish();
         have_camera = true;
       }
-      // Other processes' sections may share the file: only ours are checked strictly.
+      ConfigSection is = root.Child("ipc");
+      ReadOptions(is, &ipc);
+      is.Finish();
+      root.Read("log_level", &config_log_level);
+      // Other processes' sections share the file; anything else is a typo.
+      for (const char* other : {"front", "sampler", "manager"}) root.Ignore(other);
+      root.Finish();
     }
   } catch (const ConfigError& e) {
+    SetupLogging("back", "info");
     spdlog::error("{}", e.what());
     return 2;
   }
+  if (log_level.empty()) log_level = config_log_level;
+  if (!SetupLogging("back", log_level)) spdlog::warn("unknown log level '{}'", log_level);
   if (keep) options.keep_workspaces = true;
-  if (options.low_priority) spdlog::info("priority: {}", LowerOwnPriority());
 
-  if (instance >= 0) {
-    // TODO(ipc): --instance mode. Open the instance's window ring (ipc/) and
-    // submap ring, then loop: pop ImageWindow -> WindowQueue (capacity
-    // options.max_queue_windows, drop oldest) -> BackSubmapBuilder::Build ->
-    // push each Submap (source kBack) or the failure report; stop on SIGTERM
-    // through the builder's cancel flag.
-    spdlog::error("--instance mode needs the shared-memory transport (ipc/), not written yet");
-    return 3;
+  if (!instance.empty()) {
+    BackIpcRunOptions run;
+    run.back = options;
+    run.ipc = ipc;
+    run.ipc.instance = instance;
+    run.work_dir = work_dir;
+    run.wait_for_producer_s = wait_for_producer_s;
+    run.wait_for_consumer_s = wait_for_consumer_s;
+    std::string why;
+    if (!run.ipc.Check(&why)) {
+      spdlog::error("--instance '{}': {}", instance, why);
+      return 2;
+    }
+    if (work_dir.empty()) {
+      spdlog::error("--instance needs --work DIR (for back_stats.json)");
+      return 2;
+    }
+    struct sigaction sa {};
+    sa.sa_handler = OnSignal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, nullptr);
+    sigaction(SIGTERM, &sa, nullptr);
+    if (options.low_priority) spdlog::info("priority: {}", LowerOwnPriority());
+    return RunBackIpc(run, &g_stop);
   }
+  if (options.low_priority) spdlog::info("priority: {}", LowerOwnPriority());
   if (window_dir.empty() || out_dir.empty() || !have_camera) {
     spdlog::error("file mode needs --window-dir, --out and a --config with a camera: section");
     return 2;

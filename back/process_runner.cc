@@ -4,6 +4,7 @@
 #include <fcntl.h>
 #include <sched.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <sys/wait.h>
@@ -108,6 +109,7 @@ RunResult RunProcess(const RunRequest& req) {
     return res;
   }
   const auto t0 = std::chrono::steady_clock::now();
+  const pid_t parent = ::getpid();
   const pid_t pid = ::fork();
   if (pid < 0) {
     ::close(log_fd);
@@ -118,6 +120,10 @@ RunResult RunProcess(const RunRequest& req) {
   }
   if (pid == 0) {  // child: only async-signal-safe calls until exec
     ::setpgid(0, 0);
+    // Its own group shields COLMAP from the caller's group signals, so make
+    // sure it dies with rumi-back even when rumi-back is SIGKILLed.
+    ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (::getppid() != parent) ::_exit(127);
     if (req.low_priority) SetIdleScheduling();
     ::dup2(log_fd, STDOUT_FILENO);
     ::dup2(log_fd, STDERR_FILENO);

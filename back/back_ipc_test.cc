@@ -1,0 +1,346 @@
+// rumi-back in shared-memory mode, end to end with a fake colmap (no COLMAP
+// run): this test is the window producer and the back-submap consumer.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "common/timestamp.h"
+#include "ipc/channels.h"
+
+namespace fs = std::filesystem;
+
+namespace rumi {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double Since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// Minimal COLMAP binary model (PINHOLE, images named by timestamp, one point
+// seen by every image), as back_submap_builder_test writes it.
+void WriteCannedModel(const fs::path& dir, const PinholeCameraOptions& c, const std::vector<Timestamp>& stamps) {
+  fs::create_directories(dir);
+  auto put = [](std::ofstream& o, auto v) { o.write(reinterpret_cast<const char*>(&v), sizeof(v)); };
+  {
+    std::ofstream o(dir / "cameras.bin", std::ios::binary);
+    put(o, uint64_t{1});
+    put(o, uint32_t{1});
+    put(o, int32_t{1});
+    put(o, uint64_t(c.width));
+    put(o, uint64_t(c.height));
+    for (double v : {c.fx, c.fy, c.cx + 0.5, c.cy + 0.5}) put(o, v);
+  }
+  {
+    std::ofstream o(dir / "images.bin", std::ios::binary);
+    put(o, uint64_t(stamps.size()));
+    for (size_t i = 0; i < stamps.size(); ++i) {
+      put(o, uint32_t(i + 1));
+      for (double v : {1.0, 0.0, 0.0, 0.0, -0.1 * double(i), 0.0, 0.0}) put(o, v);
+      put(o, uint32_t{1});
+      const std::string name = TimestampFileStem(stamps[i]) + ".png";
+      o.write(name.c_str(), static_cast<std::streamsize>(name.size() + 1));
+      put(o, uint64_t{1});
+      for (double v : {30.5, 20.5}) put(o, v);
+      put(o, uint64_t{7});
+    }
+  }
+  {
+    std::ofstream o(dir / "points3D.bin", std::ios::binary);
+    put(o, uint64_t{1});
+    put(o, uint64_t{7});
+    for (double v : {0.0, 0.0, 5.0}) put(o, v);
+    for (uint8_t v : {1, 2, 3}) put(o, v);
+    put(o, 0.5);
+    put(o, uint64_t(stamps.size()));
+    for (size_t i = 0; i < stamps.size(); ++i) {
+      put(o, uint32_t(i + 1));
+      put(o, uint32_t{0});
+    }
+  }
+}
+
+bool ProcessGone(pid_t pid) {
+  if (::kill(pid, 0) != 0) return true;
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string s((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+  const size_t p = s.rfind(')');
+  return p == std::string::npos || (p + 2 < s.size() && s[p + 2] == 'Z');  // zombie: not running
+}
+
+class BackIpcTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const char* bin = std::getenv("RUMI_BIN_DIR");
+    exe_ = (fs::path(bin ? bin : RUMI_BINARY_DIR "/bin") / "rumi-back").string();
+    if (!fs::exists(exe_)) GTEST_SKIP() << "build rumi-back first: " << exe_;
+    const std::string name = ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    dir_ = fs::temp_directory_path() / ("rumi_back_ipc_test_" + std::to_string(::getpid()) + "_" + name);
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    ipc_.instance = "test_" + std::to_string(::getpid()) + "_" + name.substr(0, 8);
+    ipc_.window_slot_bytes = 1 << 20;
+    ipc_.submap_slot_bytes = 1 << 20;
+    Cleanup();
+  }
+  void TearDown() override {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+    Cleanup();
+    fs::remove_all(dir_);
+  }
+  void Cleanup() {
+    for (const char* ch : {kWindowChannel, kBackSubmapChannel}) RemoveSegment(SegmentName(ipc_.instance, ch));
+  }
+
+  // Fake colmap: the mapper copies canned/<stem of the first image>/ (if any)
+  // into the output; feature extraction hangs when `hang` exists.
+  std::string Config(int max_queue_windows = 4) {
+    const fs::path script = dir_ / "colmap.sh";
+    std::ofstream(script) << "#!/bin/sh\ncmd=$1\nout=''\nimg=''\nwhile [ $# -gt 0 ]; do\n"
+                          << "  if [ \"$1\" = --output_path ]; then out=$2; fi\n"
+                          << "  if [ \"$1\" = --image_path ]; then img=$2; fi\n  shift\ndone\n"
+                          << "d=" << dir_.string() << "\n"
+                          << "if [ $cmd = feature_extractor ] && [ -e $d/hang ]; then\n"
+                          << "  echo $$ > $d/sh.pid; sleep 60 & echo $! > $d/sleep.pid.tmp;"
+                          << " mv $d/sleep.pid.tmp $d/sleep.pid; wait; fi\n"
+                          << "if [ $cmd = mapper ]; then first=$(ls $img | head -n 1);"
+                          << " m=$d/canned/${first%.png}; if [ -d $m ]; then cp -r $m/* $out/; fi; fi\n";
+    ::chmod(script.c_str(), 0755);
+    const fs::path p = dir_ / "config.yaml";
+    std::ofstream(p) << "back: {colmap_path: " << script.string() << ", workspace_dir: " << (dir_ / "ws").string()
+                     << ", max_queue_windows: " << max_queue_windows << ", low_priority: false, step_timeout_s: 30}\n"
+                     << "ipc: {window_slot_bytes: " << ipc_.window_slot_bytes
+                     << ", submap_slot_bytes: " << ipc_.submap_slot_bytes << "}\n"
+                     << "log_level: debug\n"
+                     << "front: {anything: 1}\nsampler: {inter: 5}\nmanager: {whatever: true}\n";
+    return p.string();
+  }
+
+  ImageWindow MakeWindow(int64_t id, Timestamp t0) const {
+    ImageWindow w;
+    w.id = id;
+    w.camera.width = 64;
+    w.camera.height = 48;
+    w.camera.fx = 50;
+    w.camera.fy = 52;
+    w.camera.cx = 31.5;
+    w.camera.cy = 23.25;
+    for (int i = 0; i < 4; ++i) {
+      WindowFrame f;
+      f.timestamp = t0 + 33333333LL * i + i;  // odd ns: must come back exactly
+      f.image = cv::Mat(48, 64, CV_8UC1, cv::Scalar(20 * i + id));
+      w.frames.push_back(f);
+    }
+    return w;
+  }
+  static std::vector<Timestamp> Stamps(const ImageWindow& w) {
+    std::vector<Timestamp> t;
+    for (const WindowFrame& f : w.frames) t.push_back(f.timestamp);
+    return t;
+  }
+
+  void Start(const std::vector<std::string>& extra) {
+    std::vector<std::string> args = {exe_, "--instance", ipc_.instance, "--work", (dir_ / "work").string(),
+                                     "--wait-for-producer", "20", "--wait-for-consumer", "20"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const std::string log = (dir_ / "back.log").string();
+    pid_ = ::fork();
+    ASSERT_GE(pid_, 0);
+    if (pid_ == 0) {
+      std::vector<char*> argv;
+      for (auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+      argv.push_back(nullptr);
+      if (!std::freopen(log.c_str(), "w", stdout) || ::dup2(::fileno(stdout), 2) < 0) ::_exit(126);
+      ::execv(argv[0], argv.data());
+      ::_exit(127);
+    }
+  }
+  // Exit code, or -1 (killed / still running after timeout_s, then SIGKILLed).
+  int Wait(double timeout_s) {
+    const auto t0 = Clock::now();
+    int st = 0;
+    while (Since(t0) < timeout_s) {
+      if (::waitpid(pid_, &st, WNOHANG) == pid_) {
+        pid_ = -1;
+        return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return -1;
+  }
+  std::string Log() const {
+    std::ifstream in(dir_ / "back.log");
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  }
+  nlohmann::json Stats() const {
+    std::ifstream in(dir_ / "work" / "back_stats.json");
+    EXPECT_TRUE(in.good()) << Log();
+    return in.good() ? nlohmann::json::parse(in) : nlohmann::json();
+  }
+
+  std::string exe_;
+  fs::path dir_;
+  IpcOptions ipc_;
+  pid_t pid_ = -1;
+};
+
+TEST_F(BackIpcTest, WindowsInBackSubmapsOutThenCleanExit) {
+  const ImageWindow a = MakeWindow(7, 1341847980722988001LL);
+  const ImageWindow b = MakeWindow(8, 1341847990000000003LL);
+  const ImageWindow c = MakeWindow(9, 1341848000000000005LL);  // no model: fails as no_model
+  WriteCannedModel(dir_ / "canned" / TimestampFileStem(a.frames[0].timestamp) / "0", a.camera, Stamps(a));
+  WriteCannedModel(dir_ / "canned" / TimestampFileStem(b.frames[0].timestamp) / "0", b.camera, Stamps(b));
+  const std::string config = Config();
+
+  auto tx = std::make_unique<WindowSender>(ipc_);
+  SubmapReceiver rx(ipc_, SubmapSource::kBack);
+  Start({"--config", config});
+  for (const ImageWindow* w : {&a, &b, &c}) ASSERT_EQ(tx->Send(*w), PushStatus::kOk);
+  // As every producer must: let the consumer read everything, then close.
+  const auto t0 = Clock::now();
+  while (Since(t0) < 15) {
+    const RingStats rs = tx->ring().Stats();
+    if (rs.consumer_alive && rs.tail == rs.head) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_EQ(tx->ring().Stats().tail, 3u) << Log();
+  tx.reset();
+  // Attach only after the back has built every window: it must wait for its
+  // consumer instead of closing (and unlinking) the channel with the submaps.
+  const auto t2 = Clock::now();
+  while (Since(t2) < 15) {
+    std::ifstream in(dir_ / "work" / "back_stats.json");
+    if (in.good() && nlohmann::json::parse(in, nullptr, false).value("windows", 0) == 3) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ASSERT_EQ(::waitpid(pid_, nullptr, WNOHANG), 0) << "rumi-back exited before its consumer attached\n" << Log();
+
+  std::vector<Submap> got;
+  const auto t1 = Clock::now();
+  while (Since(t1) < 15) {
+    Submap s;
+    if (rx.Receive(&s, 0.05) == PopStatus::kOk) got.push_back(std::move(s));
+    if (rx.ring().closed_segments() > 0 && !rx.ring().connected()) break;
+  }
+  EXPECT_EQ(rx.ring().closed_segments(), 1u) << "back did not close its channel\n" << Log();
+  EXPECT_EQ(Wait(10), 0) << Log();
+
+  ASSERT_EQ(got.size(), 2u) << Log();
+  EXPECT_NE(got[0].id, got[1].id);
+  for (size_t i = 0; i < 2; ++i) {
+    const ImageWindow& w = i == 0 ? a : b;
+    EXPECT_EQ(got[i].source, SubmapSource::kBack);
+    ASSERT_EQ(got[i].keyframes.size(), w.frames.size());
+    for (size_t k = 0; k < w.frames.size(); ++k) EXPECT_EQ(got[i].keyframes[k].timestamp, w.frames[k].timestamp);
+    EXPECT_DOUBLE_EQ(got[i].camera.fx, 50);
+  }
+
+  const nlohmann::json j = Stats();
+  EXPECT_EQ(j["windows"], 3);  // processed (docs/eval.md)
+  EXPECT_EQ(j["windows_received"], 3);
+  EXPECT_EQ(j["windows_done"], 2);
+  EXPECT_EQ(j["windows_failed"], 1);
+  EXPECT_EQ(j["windows_cancelled"], 0);
+  EXPECT_EQ(j["windows_dropped"], 0);
+  EXPECT_EQ(j["submaps_sent"], 2);
+  EXPECT_EQ(j["producer"], "closed");
+  EXPECT_EQ(j["stopped_by_signal"], false);
+  EXPECT_GT(j["seconds"].get<double>(), 0.0);
+  ASSERT_EQ(j["per_window"].size(), 3u);
+  const auto& p = j["per_window"];
+  EXPECT_EQ(p[0]["window_id"], 7);
+  EXPECT_EQ(p[0]["status"], "ok");
+  EXPECT_EQ(p[0]["frames"], 4);
+  EXPECT_EQ(p[0]["registered"], 4);
+  EXPECT_EQ(p[0]["submaps"], nlohmann::json::array({got[0].id}));
+  EXPECT_EQ(p[1]["submaps"], nlohmann::json::array({got[1].id}));
+  EXPECT_EQ(p[2]["window_id"], 9);
+  EXPECT_EQ(p[2]["status"], "no_model");
+  EXPECT_EQ(p[2]["registered"], 0);
+  double sum = 0;
+  for (const auto& w : p) {
+    EXPECT_TRUE(w["seconds"].contains("matching"));
+    sum += w["seconds"]["total"].get<double>();
+  }
+  EXPECT_NEAR(j["seconds"].get<double>(), sum, 1e-9);
+  EXPECT_TRUE(!fs::exists(dir_ / "ws") || fs::is_empty(dir_ / "ws"));
+  // Both segments are gone after clean exits.
+  RingStats rs;
+  EXPECT_FALSE(ReadRingStats(SegmentName(ipc_.instance, kBackSubmapChannel), &rs));
+}
+
+TEST_F(BackIpcTest, SigtermCancelsRunningColmapAndExitsZero) {
+  std::ofstream(dir_ / "hang") << "1\n";
+  const std::string config = Config(/*max_queue_windows=*/1);
+  WindowSender tx(ipc_);
+  Start({"--config", config});
+  ASSERT_EQ(tx.Send(MakeWindow(3, 1000000000LL)), PushStatus::kOk);
+  const auto t0 = Clock::now();
+  while (!fs::exists(dir_ / "sleep.pid") && Since(t0) < 15)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_TRUE(fs::exists(dir_ / "sleep.pid")) << Log();
+  pid_t sh = 0, sleeper = 0;
+  std::ifstream(dir_ / "sh.pid") >> sh;
+  std::ifstream(dir_ / "sleep.pid") >> sleeper;
+  ASSERT_GT(sh, 0);
+  ASSERT_GT(sleeper, 0);
+  EXPECT_FALSE(ProcessGone(sleeper));
+  // While COLMAP runs, the receiver keeps the ring empty: windows 4..6 are
+  // taken off it and the queue of one keeps only the newest (2 dropped).
+  for (int64_t id = 4; id <= 6; ++id) ASSERT_EQ(tx.Send(MakeWindow(id, id * 1000000000LL)), PushStatus::kOk);
+  while (tx.ring().Stats().tail != 4 && Since(t0) < 15) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_EQ(tx.ring().Stats().tail, 4u) << Log();
+
+  const auto t1 = Clock::now();
+  ASSERT_EQ(::kill(pid_, SIGTERM), 0);
+  EXPECT_EQ(Wait(10), 0) << Log();
+  const double secs = Since(t1);
+  std::printf("rumi-back stopped %.3f s after SIGTERM\n", secs);
+  EXPECT_LT(secs, 3.0) << "docs/eval.md: stop within 3 s";
+  const auto t2 = Clock::now();  // orphans are reaped by init: give it a moment
+  while ((!ProcessGone(sh) || !ProcessGone(sleeper)) && Since(t2) < 2)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_TRUE(ProcessGone(sh)) << "fake colmap survived";
+  EXPECT_TRUE(ProcessGone(sleeper)) << "fake colmap's child survived";
+
+  const nlohmann::json j = Stats();
+  EXPECT_EQ(j["windows_received"], 4);
+  EXPECT_EQ(j["windows_dropped"], 2);
+  EXPECT_EQ(j["windows"], 1);
+  EXPECT_EQ(j["windows_cancelled"], 1);
+  EXPECT_EQ(j["windows_done"], 0);
+  EXPECT_EQ(j["submaps_sent"], 0);
+  EXPECT_EQ(j["stopped_by_signal"], true);
+  EXPECT_EQ(j["per_window"][0]["status"], "cancelled");
+  RingStats rs;
+  EXPECT_FALSE(ReadRingStats(SegmentName(ipc_.instance, kBackSubmapChannel), &rs)) << "channel not closed";
+}
+
+TEST_F(BackIpcTest, ConfigAndCommandLineErrors) {
+  const std::string good = Config();
+  std::ofstream(dir_ / "typo.yaml") << "bakc: {num_threads: 2}\n";  // top-level typo
+  std::ofstream(dir_ / "badipc.yaml") << "ipc: {window_slots: 0}\n";
+  Start({"--config", (dir_ / "typo.yaml").string()});
+  EXPECT_EQ(Wait(10), 2);
+  EXPECT_NE(Log().find("bakc"), std::string::npos) << Log();
+  Start({"--config", (dir_ / "badipc.yaml").string()});
+  EXPECT_EQ(Wait(10), 2) << Log();
+  // Instance ids are [A-Za-z0-9_-]{1,32}.
+  ipc_.instance = "bad/id";
+  Start({"--config", good});
+  EXPECT_EQ(Wait(10), 2) << Log();
+}
+
+}  // namespace
+}  // namespace rumi
