@@ -1,0 +1,156 @@
+// Loss handling and the hierarchical mode on the real KITTI excerpt with
+// black / noise frames cut into it.
+#include <gtest/gtest.h>
+
+#include <opencv2/core.hpp>
+#include <random>
+
+#include "front/front.h"
+#include "front/front_test_util.h"
+
+namespace rumi {
+namespace {
+
+cv::Mat Noise(const cv::Size& sz, unsigned seed) {
+  cv::Mat m(sz, CV_8U);
+  cv::RNG rng(seed);
+  rng.fill(m, cv::RNG::UNIFORM, 0, 256);
+  return m;
+}
+
+TEST(FrontLoss, BlackAndNoiseFramesStartANewSubmapWithinOneSecond) {
+  auto seq = LoadKitti(76);
+  if (!seq) GTEST_SKIP() << "KITTI excerpt not found";
+  FrontOptions o;
+  o.local_mapping_thread = false;
+  Front front(o, seq->camera);
+  Timestamp t_loss = -1, t_new_submap = -1;
+  int tracked_before = 0, tracked_after = 0;
+  for (int i = 0; i < 76; ++i) {
+    const Frame& f = seq->frames[i];
+    cv::Mat img = f.image;
+    const bool blind = i >= 35 && i < 42;
+    if (blind) img = (i % 2) ? cv::Mat::zeros(f.image.size(), CV_8U) : Noise(f.image.size(), i);
+    const FrameRecord r = front.Track(f.timestamp, img);
+    if (i < 35 && r.state == TrackingState::kTracking) ++tracked_before;
+    if (blind) {
+      EXPECT_NE(r.state, TrackingState::kTracking) << "frame " << i;
+    }
+    if (blind && t_loss < 0) {
+      t_loss = f.timestamp;
+      EXPECT_EQ(r.submap_id, 0);
+    }
+    if (t_loss >= 0 && t_new_submap < 0 && r.submap_id > 0) t_new_submap = f.timestamp;
+    if (i >= 42 && r.state == TrackingState::kTracking) {
+      ++tracked_after;
+      EXPECT_GE(r.submap_id, 1);
+    }
+  }
+  EXPECT_GE(tracked_before, 28);
+  ASSERT_GE(t_new_submap, 0) << "no new submap after the loss";
+  EXPECT_LE(NsToSeconds(t_new_submap - t_loss), 1.0);
+  EXPECT_GE(tracked_after, 20);  // re-initialised on the frames after the cut
+  // The first submap was finished with its map; its frames stop at the loss.
+  ASSERT_GE(front.FinishedSubmaps().size(), 1u);
+  const Submap& s0 = front.FinishedSubmaps()[0];
+  EXPECT_EQ(s0.id, 0);
+  EXPECT_GE(s0.keyframes.size(), 5u);
+  EXPECT_GT(s0.points.size(), 200u);
+  for (const FrameRecord& r : s0.frames) EXPECT_LE(r.timestamp, t_new_submap);
+  const AteSummary ate = Ate(s0.frames, seq->frames);
+  EXPECT_LT(ate.Percent(), 1.5);
+  front.Finish();
+  EXPECT_GE(front.FinishedSubmaps().size(), 2u);
+  EXPECT_GT(front.FinishedSubmaps().back().id, 0);
+}
+
+TEST(FrontLoss, DroppedFramesRelocaliseOrRestartWithinOneSecond) {
+  auto seq = LoadKitti(70);
+  if (!seq) GTEST_SKIP() << "KITTI excerpt not found";
+  FrontOptions o;
+  o.local_mapping_thread = false;
+  Front front(o, seq->camera);
+  Timestamp t_back = -1;
+  std::vector<FrameRecord> after;
+  for (int i = 0; i < 70; ++i) {
+    if (i >= 36 && i < 41) continue;  // 0.5 s of frames lost on the link (~3.5 m driven)
+    const FrameRecord r = front.Track(seq->frames[i].timestamp, seq->frames[i].image);
+    if (i >= 41) after.push_back(r);
+  }
+  // Tracking again (relocalised in submap 0, or a new submap) within 1 s.
+  for (const FrameRecord& r : after)
+    if (r.state == TrackingState::kTracking) { t_back = r.timestamp; break; }
+  ASSERT_GE(t_back, 0);
+  EXPECT_LE(NsToSeconds(t_back - seq->frames[41].timestamp), 1.0);
+  int tracked = 0;
+  for (const FrameRecord& r : after) tracked += r.state == TrackingState::kTracking ? 1 : 0;
+  EXPECT_GE(tracked, static_cast<int>(after.size()) - 12);
+  // No wrong lock across the gap: each submap stays consistent with the truth.
+  front.Finish();
+  for (const Submap& s : front.FinishedSubmaps()) {
+    const AteSummary ate = Ate(s.frames, seq->frames);
+    if (ate.pairs >= 10) {
+      EXPECT_LT(ate.Percent(), 1.5) << "submap " << s.id;
+    }
+  }
+}
+
+TEST(FrontLoss, HierarchicalCoarseStateChainsSubmapsByPosePrior) {
+  auto seq = LoadKitti(66);
+  if (!seq) GTEST_SKIP() << "KITTI excerpt not found";
+  FrontOptions o;
+  o.local_mapping_thread = false;
+  o.hierarchical = true;
+  o.hier.eta = 3.0;  // KITTI frames: ~40 keypoints per 100x100 px
+  o.hier.sparse_frames = 3;
+  o.hier.resume_frames = 3;
+  Front front(o, seq->camera);
+  std::map<Timestamp, Se3> gt;
+  for (const Frame& f : seq->frames) {
+    ASSERT_TRUE(f.T_wc_gt);
+    front.AddPosePrior(f.timestamp, *f.T_wc_gt);  // odometry stand-in
+    gt[f.timestamp] = *f.T_wc_gt;
+  }
+  int coarse = 0, halted = 0, tracked_after = 0;
+  for (int i = 0; i < 66; ++i) {
+    const Frame& f = seq->frames[i];
+    const bool dark = i >= 30 && i < 36;
+    const FrameRecord r = front.Track(f.timestamp, dark ? cv::Mat::zeros(f.image.size(), CV_8U) : f.image);
+    if (i < 30) {
+      EXPECT_EQ(front.grain(), MappingGrain::kFine);
+    }
+    if (i == 31) {
+      EXPECT_EQ(front.grain(), MappingGrain::kFine);  // 2 sparse frames: not yet
+    }
+    if (i == 32) {  // third sparse frame: coarse, submap 0 finished
+      EXPECT_EQ(front.grain(), MappingGrain::kCoarse);
+      EXPECT_EQ(front.FinishedSubmaps().size(), 1u);
+    }
+    if (r.state == TrackingState::kCoarse) {
+      ++coarse;
+      EXPECT_EQ(r.submap_id, 0);
+    }
+    halted += front.halt() ? 1 : 0;
+    if (i >= 38 && r.state == TrackingState::kTracking) {
+      ++tracked_after;
+      EXPECT_EQ(r.submap_id, 1);
+    }
+  }
+  // Coarse from the 3rd dark frame until the 3rd dense one after it.
+  EXPECT_EQ(coarse, 4 + 2);
+  EXPECT_EQ(halted, coarse);
+  EXPECT_GE(tracked_after, 20);
+  ASSERT_EQ(front.links().size(), 1u);
+  const SubmapLink& l = front.links()[0];
+  EXPECT_EQ(l.from, 0);
+  EXPECT_EQ(l.to, 1);
+  ASSERT_TRUE(l.valid);
+  EXPECT_LT(l.t_from, seq->frames[30].timestamp);
+  EXPECT_GE(l.t_to, seq->frames[36].timestamp);
+  const Se3 expect = gt[l.t_from].Inverse() * gt[l.t_to];
+  EXPECT_LT((l.T_from_to.translation() - expect.translation()).norm(), 1e-6);
+  EXPECT_GT(l.T_from_to.translation().norm(), 3.0);  // the car moved on meanwhile
+}
+
+}  // namespace
+}  // namespace rumi

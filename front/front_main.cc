@@ -1,0 +1,185 @@
+// rumi-front: runs the realtime front end on a dataset and writes the
+// trajectories (TUM), per-frame states and timings.
+//   rumi-front --dataset tum|euroc|icl|kitti|folder PATH [--config FILE] [--out DIR]
+//              [--bench] [--sync] [--no-pace] [--max-frames N] [--log LEVEL]
+#include <CLI/CLI.hpp>
+#include <opencv2/core.hpp>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <optional>
+#include <thread>
+#include <chrono>
+
+#include "common/config.h"
+#include "common/dataset.h"
+#include "common/logging.h"
+#include "common/trajectory.h"
+#include "common/trajectory_eval.h"
+#include "front/front.h"
+
+namespace rumi {
+namespace {
+
+double Percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const size_t i = std::min(v.size() - 1, static_cast<size_t>(p * (v.size() - 1) + 0.5));
+  return v[i];
+}
+
+Trajectory TrackedPoses(const Submap& s) {
+  Trajectory t;
+  for (const FrameRecord& r : s.frames)
+    if (r.state == TrackingState::kTracking) t.push_back({r.timestamp, r.T_wc});
+  return t;
+}
+
+int Main(int argc, char** argv) {
+  CLI::App app{"rumi-front: realtime monocular front end on a dataset"};
+  std::string kind_name, path, config_path, out_dir, log_level = "info";
+  bool bench = false;
+  int max_frames = 0;
+  app.add_option("--dataset", kind_name, "dataset kind: tum|euroc|icl|kitti|folder")->required();
+  app.add_option("path", path, "dataset folder")->required();
+  app.add_option("--config", config_path, "rumi YAML config (section front:, camera:)");
+  app.add_option("--out", out_dir, "output folder (trajectories, states, timings)");
+  app.add_flag("--bench", bench, "print median / p95 ms per frame");
+  app.add_option("--max-frames", max_frames, "stop after N frames (0: all)");
+  app.add_option("--log", log_level, "log level");
+  bool sync = false, no_pace = false;
+  app.add_flag("--no-pace", no_pace, "feed frames as fast as possible instead of at capture rate");
+  app.add_flag("--sync", sync, "run local mapping inline (deterministic; not realtime)");
+  CLI11_PARSE(app, argc, argv);
+  SetupLogging("front", log_level);
+  cv::setNumThreads(1);  // 2 shared cores: OpenCV threads would fight tracking + mapping
+
+  DatasetOptions dopt;
+  if (!ParseDatasetKind(kind_name, &dopt.kind)) {
+    std::cerr << "rumi-front: unknown dataset kind '" << kind_name << "'\n";
+    return 2;
+  }
+  dopt.path = path;
+  dopt.config_path = config_path;
+  FrontOptions fopt;
+  if (!config_path.empty()) {
+    ConfigSection root = LoadConfigFile(config_path);
+    ConfigSection s = root.Child("front");
+    ReadOptions(s, &fopt);
+    s.Finish();
+  }
+  if (sync) fopt.local_mapping_thread = false;
+  auto source = OpenDataset(dopt);
+  Front front(fopt, source->camera());
+  spdlog::info("rumi-front: {} frames, camera {}x{} fx {:.2f}", source->size(), source->camera().width(),
+               source->camera().height(), source->camera().fx());
+  Frame frame;
+  std::vector<Timestamp> all_t;
+  int n = 0;
+  // Frames are played at their capture rate (as a camera would deliver them),
+  // so local mapping gets the time it would get live; reading is not timed.
+  const bool pace = !sync && !no_pace;
+  std::optional<std::chrono::steady_clock::time_point> play0;
+  Timestamp t0 = 0;
+  while (source->Next(&frame)) {
+    if (max_frames > 0 && n >= max_frames) break;
+    if (pace) {
+      if (!play0) { play0 = std::chrono::steady_clock::now(); t0 = frame.timestamp; }
+      std::this_thread::sleep_until(*play0 + std::chrono::nanoseconds(frame.timestamp - t0));
+    }
+    front.Track(frame.timestamp, frame.image);
+    all_t.push_back(frame.timestamp);
+    ++n;
+  }
+  front.Finish();
+  const auto& subs = front.FinishedSubmaps();
+  const Submap* largest = nullptr;
+  for (const Submap& s : subs)
+    if (!largest || TrackedPoses(s).size() > TrackedPoses(*largest).size()) largest = &s;
+
+  size_t tracked = 0;
+  for (const FrameRecord& r : front.records()) tracked += r.state == TrackingState::kTracking ? 1 : 0;
+  std::cout << "frames " << n << ", tracked " << tracked << " (" << 100.0 * tracked / std::max(1, n)
+            << " %), submaps " << subs.size() << "\n";
+
+  // Evaluation against ground truth, if any (largest submap, Sim3).
+  Trajectory gt;
+  for (const auto& [t, T] : source->ground_truth()) gt.push_back({t, T});
+  if (largest && !gt.empty() && all_t.size() >= 2) {
+    const Trajectory est = TrackedPoses(*largest);
+    try {
+      AteOptions ao;
+      const AteResult ate = ComputeAte(est, gt, ao);
+      double len = 0;
+      for (size_t i = 1; i < ate.pairs.size(); ++i)
+        len += (gt[ate.pairs[i].gt].T_wc.translation() - gt[ate.pairs[i - 1].gt].T_wc.translation()).norm();
+      const TrackingRate tr = ComputeTrackingRate(all_t, est);
+      std::cout << "largest submap " << largest->id << ": " << est.size() << " poses, ATE(Sim3) rmse "
+                << ate.translation.rmse << " m over path " << len << " m = "
+                << (len > 0 ? 100.0 * ate.translation.rmse / len : 0) << " %, covered rate "
+                << 100.0 * tr.covered_rate << " %, frame rate " << 100.0 * tr.frame_rate << " %\n";
+    } catch (const std::exception& e) {
+      std::cout << "evaluation failed: " << e.what() << "\n";
+    }
+  }
+  if (bench) {
+    std::vector<double> ms;
+    for (const FrameTiming& t : front.timings()) ms.push_back(t.total_ms);
+    std::vector<double> ex;
+    for (const FrameTiming& t : front.timings()) ex.push_back(t.extract_ms);
+    std::vector<double> wait;
+    for (const FrameTiming& t : front.timings()) wait.push_back(t.lock_wait_ms);
+    std::cout << "bench map-lock wait: median " << Percentile(wait, 0.5) << " ms, p95 " << Percentile(wait, 0.95)
+              << " ms, max " << Percentile(wait, 1.0) << " ms\n";
+    std::vector<double> cpu;
+    for (const FrameTiming& t : front.timings()) cpu.push_back(t.cpu_ms);
+    std::cout << "bench cpu: median " << Percentile(cpu, 0.5) << " ms, p95 " << Percentile(cpu, 0.95)
+              << " ms (tracking-thread CPU time per frame)\n";
+    std::cout << "bench: " << ms.size() << " frames, median " << Percentile(ms, 0.5) << " ms, p95 "
+              << Percentile(ms, 0.95) << " ms, max " << Percentile(ms, 1.0) << " ms (extract median "
+              << Percentile(ex, 0.5) << " ms)\n";
+  }
+  if (!out_dir.empty()) {
+    std::filesystem::create_directories(out_dir);
+    if (largest) WriteTumTrajectory(out_dir + "/trajectory.txt", TrackedPoses(*largest));
+    {
+      std::ofstream f(out_dir + "/submaps_trajectory.txt");
+      f << "# submap_id timestamp tx ty tz qx qy qz qw (camera->submap world)\n";
+      for (const Submap& s : subs)
+        for (const StampedPose& p : TrackedPoses(s)) {
+          const auto& q = p.T_wc.rotation();
+          const auto& t = p.T_wc.translation();
+          f << s.id << " " << FormatSeconds(p.t) << " " << t.x() << " " << t.y() << " " << t.z() << " "
+            << q.x() << " " << q.y() << " " << q.z() << " " << q.w() << "\n";
+        }
+    }
+    {
+      std::ofstream f(out_dir + "/frames.txt");
+      f << "# timestamp state submap_id extract_ms track_ms total_ms cpu_ms keypoints inliers\n";
+      const auto& recs = front.records();
+      const auto& tim = front.timings();
+      for (size_t i = 0; i < recs.size() && i < tim.size(); ++i)
+        f << FormatSeconds(recs[i].timestamp) << " " << ToString(recs[i].state) << " " << recs[i].submap_id << " "
+          << tim[i].extract_ms << " " << tim[i].track_ms << " " << tim[i].total_ms << " " << tim[i].cpu_ms << " " << tim[i].keypoints << " "
+          << tim[i].inliers << "\n";
+    }
+    std::cout << "wrote " << out_dir << "/{trajectory.txt,submaps_trajectory.txt,frames.txt}\n";
+  }
+  return 0;
+}
+
+}  // namespace
+}  // namespace rumi
+
+int main(int argc, char** argv) {
+  try {
+    return rumi::Main(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "rumi-front: " << e.what() << "\n";
+    return 1;
+  }
+}

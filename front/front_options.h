@@ -1,0 +1,60 @@
+#pragma once
+// Options of the realtime front end (config section `front:`).
+#include <string>
+
+#include "common/config.h"
+#include "front/hierarchical.h"
+
+namespace rumi {
+
+struct OrbExtractorOptions {
+  int num_features = 0;       // per frame; 0: auto (1000 up to 640x480, 2000 above)
+  int num_levels = 8;
+  double scale_factor = 1.2;
+  int fast_threshold = 20;    // preferred corner strength
+  int fast_min_threshold = 7; // fallback in low-texture cells
+  int cell_size = 32;         // grid bucket side in pixels (level 0)
+  bool Check(std::string* why = nullptr) const;
+};
+
+struct FrontOptions {
+  OrbExtractorOptions orb;
+  // Initialization.
+  double init_search_radius_frac = 0.12;  // window radius / image width
+  int init_min_matches = 100;
+  int init_min_triangulated = 50;
+  double init_min_parallax_deg = 1.0;
+  int init_max_frames = 30;               // ref frame replaced after this many tries
+  // Tracking.
+  double motion_search_radius = 15.0;     // px at level 0 (scaled by octave)
+  double local_search_radius = 1.0;       // x 2.5-4 px x scale (x3 after (re)initialisation)
+  int min_tracked_inliers = 30;
+  double short_term_s = 3.0;              // Th_t: short-term association window
+  double mid_term_dist = 3.0;             // Th_p, in units of the initial median depth
+  int max_local_keyframes = 30;
+  // Keyframes.
+  double fps = 0;                         // frame rate for the keyframe cadence; 0: from timestamps
+  double kf_tracked_ratio = 0.9;
+  // Local mapping.
+  bool local_mapping_thread = true;       // false: run mapping inline (tests)
+  int triangulation_neighbours = 15;
+  int local_ba_iterations = 5;
+  int local_ba_max_keyframes = 20;        // free keyframes (new + best covisible)
+  double local_ba_max_time_s = 0.15;
+  int local_ba_max_fixed = 20;
+  double kf_cull_redundancy = 0.9;
+  // Loss handling.
+  double reloc_time_s = 0.5;              // give up relocalizing after this long
+  int reloc_min_inliers = 40;
+  // Hierarchical fine/coarse mode (paper 000).
+  bool hierarchical = false;
+  HierarchicalOptions hier;
+
+  bool Check(std::string* why = nullptr) const;
+};
+
+// Reads section `front:` (sub-sections `orb:` and `hierarchical_mode:`).
+void ReadOptions(ConfigSection& s, OrbExtractorOptions* o);
+void ReadOptions(ConfigSection& s, FrontOptions* o);
+
+}  // namespace rumi

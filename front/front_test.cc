@@ -1,0 +1,151 @@
+#include "front/front.h"
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+
+#include <set>
+
+#include "front/front_test_util.h"
+
+namespace rumi {
+namespace {
+
+FrontOptions SyncOptions() {
+  FrontOptions o;
+  o.local_mapping_thread = false;  // deterministic: mapping runs inline
+  return o;
+}
+
+// Consistency of an exported submap: ids, links, sizes, observations.
+void ExpectValidSubmap(const Submap& s) {
+  ASSERT_GE(s.keyframes.size(), 2u);
+  std::map<int64_t, const Keyframe*> kfs;
+  Timestamp prev = -1;
+  for (const Keyframe& k : s.keyframes) {
+    EXPECT_GT(k.timestamp, prev);  // sorted by time
+    prev = k.timestamp;
+    kfs[k.id] = &k;
+    EXPECT_EQ(k.keypoints.size(), k.octaves.size());
+    EXPECT_EQ(k.keypoints.size(), k.point_ids.size());
+    EXPECT_EQ(static_cast<size_t>(k.descriptors.rows), k.keypoints.size());
+    EXPECT_EQ(k.descriptors.cols, 32);
+    for (uint8_t o : k.octaves) {
+      EXPECT_LT(o, 8);
+    }
+  }
+  std::map<int64_t, const MapPoint*> pts;
+  for (const MapPoint& p : s.points) {
+    pts[p.id] = &p;
+    EXPECT_GE(p.observations.size(), 2u);
+    EXPECT_EQ(p.descriptor.cols, 32);
+    for (const auto& o : p.observations) {
+      ASSERT_TRUE(kfs.count(o.keyframe_id));
+      const Keyframe& k = *kfs[o.keyframe_id];
+      ASSERT_LT(static_cast<size_t>(o.keypoint_index), k.keypoints.size());
+      EXPECT_EQ(k.point_ids[o.keypoint_index], p.id);
+      // The point projects near its keypoint (map is optimised).
+      const Eigen::Vector3d pc = k.T_cw * p.position;
+      EXPECT_GT(pc.z(), 0);
+    }
+  }
+  for (const Keyframe& k : s.keyframes)
+    for (int64_t id : k.point_ids)
+      if (id >= 0) {
+        EXPECT_TRUE(pts.count(id));
+      }
+}
+
+TEST(Front, TracksKittiStretch) {
+  auto seq = LoadKitti(60);
+  if (!seq) GTEST_SKIP() << "KITTI excerpt not found";
+  Front front(SyncOptions(), seq->camera);
+  int callbacks = 0;
+  front.SetFrameCallback([&](const FrameRecord& r, const cv::Mat& img) {
+    ++callbacks;
+    EXPECT_FALSE(img.empty());
+    EXPECT_GE(r.submap_id, 0);
+  });
+  int tracked = 0, first_tracked = -1;
+  for (size_t i = 0; i < seq->frames.size(); ++i) {
+    const FrameRecord r = front.Track(seq->frames[i].timestamp, seq->frames[i].image);
+    EXPECT_EQ(r.timestamp, seq->frames[i].timestamp);
+    if (r.state == TrackingState::kTracking) {
+      ++tracked;
+      if (first_tracked < 0) first_tracked = static_cast<int>(i);
+    }
+  }
+  EXPECT_EQ(callbacks, 60);
+  EXPECT_GE(first_tracked, 0);
+  EXPECT_LE(first_tracked, 10);  // initialises within the first second
+  EXPECT_GE(tracked, 0.9 * 60);
+  EXPECT_EQ(front.timings().size(), 60u);
+  const Submap live = front.CurrentSubmap();
+  front.Finish();
+  ASSERT_EQ(front.FinishedSubmaps().size(), 1u);
+  const Submap& s = front.FinishedSubmaps()[0];
+  EXPECT_EQ(s.id, 0);
+  EXPECT_EQ(live.keyframes.size(), s.keyframes.size());
+  EXPECT_EQ(s.camera.width, 1242);
+  EXPECT_EQ(s.frames.size(), 60u);
+  ExpectValidSubmap(s);
+  // Refined (keyframe-relative) poses of the submap against ground truth.
+  const AteSummary ate = Ate(s.frames, seq->frames);
+  EXPECT_GE(ate.pairs, 54u);
+  EXPECT_GT(ate.path, 30.0);  // the car moves ~40 m
+  EXPECT_LT(ate.Percent(), 1.0) << "rmse " << ate.rmse << " over " << ate.path;
+  // Scale normalisation: first keyframe's median depth is 1 -> the submap is
+  // not metric; the first keyframe is the submap origin.
+  EXPECT_LT(s.keyframes.front().T_cw.translation().norm(), 1e-9);
+  // Realtime records too (not refined later).
+  const AteSummary ate_rt = Ate(front.records(), seq->frames);
+  EXPECT_LT(ate_rt.Percent(), 2.0);
+}
+
+TEST(Front, OptionsFromConfig) {
+  ConfigSection root = LoadConfigString(
+      "front:\n  fps: 20\n  orb: {num_features: 1500, num_levels: 6}\n  hierarchical: true\n"
+      "  hierarchical_mode: {eta: 2.0, lambda: 40, stall_threshold: 30}\n",
+      "front.yaml");
+  ConfigSection s = root.Child("front");
+  FrontOptions o;
+  ReadOptions(s, &o);
+  EXPECT_NO_THROW(s.Finish());
+  EXPECT_DOUBLE_EQ(o.fps, 20);
+  EXPECT_EQ(o.orb.num_features, 1500);
+  EXPECT_EQ(o.orb.num_levels, 6);
+  EXPECT_TRUE(o.hierarchical);
+  EXPECT_EQ(o.hier.lambda, 40);
+
+  auto fails = [](const std::string& yaml) {
+    ConfigSection r = LoadConfigString(yaml, "bad.yaml");
+    ConfigSection f = r.Child("front");
+    FrontOptions x;
+    try {
+      ReadOptions(f, &x);
+      f.Finish();
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(fails("front: {fps: -1}").find("fps"), std::string::npos);
+  EXPECT_NE(fails("front: {orb: {scale_factor: 3}}").find("scale_factor"), std::string::npos);
+  EXPECT_NE(fails("front: {min_tracked_inlers: 40}").find("min_tracked_inlers"), std::string::npos);
+  EXPECT_NE(fails("front: {hierarchical: maybe}").find("hierarchical"), std::string::npos);
+  FrontOptions bad;
+  bad.kf_tracked_ratio = 0;
+  EXPECT_FALSE(bad.Check());
+  PinholeCameraOptions co;
+  EXPECT_THROW(Front(bad, PinholeCamera(co)), std::invalid_argument);
+}
+
+TEST(Front, RejectsEmptyImage) {
+  Front front(SyncOptions(), PinholeCamera(PinholeCameraOptions()));
+  EXPECT_THROW(front.Track(0, cv::Mat()), std::invalid_argument);
+  // A black or tiny frame is not an error: the front stays initialising.
+  EXPECT_EQ(front.Track(1, cv::Mat::zeros(480, 640, CV_8U)).state, TrackingState::kInitializing);
+  EXPECT_EQ(front.Track(2, cv::Mat::zeros(10, 10, CV_8U)).state, TrackingState::kInitializing);
+}
+
+}  // namespace
+}  // namespace rumi

@@ -1,0 +1,153 @@
+#pragma once
+// Internal map of one front submap: keyframes, map points, covisibility.
+// Everything here is guarded by Map::mutex (tracking and local mapping share
+// it; the mapping thread holds it only for short, bounded steps). Objects are
+// flagged bad instead of freed so raw pointers held by frames stay valid for
+// the submap's lifetime.
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <vector>
+
+#include "common/geometry.h"
+#include "common/submap.h"
+#include "common/timestamp.h"
+
+namespace rumi {
+
+struct Landmark;
+struct KeyFrame;
+
+// Immutable features of one image.
+struct Features {
+  int width = 0, height = 0;
+  std::vector<cv::KeyPoint> keypoints;    // as detected (distorted)
+  std::vector<Eigen::Vector2d> un;        // undistorted pixel coordinates
+  cv::Mat descriptors;                    // N x 32 CV_8U
+  // Grid over the undistorted image for window queries.
+  double min_x = 0, min_y = 0, max_x = 0, max_y = 0;
+  int grid_cols = 0, grid_rows = 0;
+  double cell_w = 1, cell_h = 1;
+  std::vector<std::vector<int>> grid;
+
+  size_t size() const { return keypoints.size(); }
+  void BuildGrid(int cols, int rows);
+  // Features within radius r of (x, y) (square window), octave in [min_level, max_level]
+  // (max_level < 0: no upper bound).
+  std::vector<int> InArea(double x, double y, double r, int min_level = -1, int max_level = -1) const;
+  bool InImage(double x, double y) const { return x >= min_x && x < max_x && y >= min_y && y < max_y; }
+};
+
+// Camera model and pyramid constants shared by the front's parts.
+struct FrontCamera {
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  int num_levels = 8;
+  double scale_factor = 1.2;
+  std::vector<double> scales, sigma2, inv_sigma2;
+  Eigen::Vector2d Project(const Eigen::Vector3d& p) const {
+    return {fx * p.x() / p.z() + cx, fy * p.y() / p.z() + cy};
+  }
+  Eigen::Vector3d Ray(const Eigen::Vector2d& u) const { return {(u.x() - cx) / fx, (u.y() - cy) / fy, 1.0}; }
+  Eigen::Matrix3d K() const {
+    Eigen::Matrix3d k;
+    k << fx, 0, cx, 0, fy, cy, 0, 0, 1;
+    return k;
+  }
+};
+
+struct Landmark {
+  int64_t id = -1;
+  Eigen::Vector3d pos = Eigen::Vector3d::Zero();
+  cv::Mat descriptor;                 // 1 x 32
+  std::map<KeyFrame*, int> obs;       // keyframe -> keypoint index
+  KeyFrame* ref_kf = nullptr;
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // mean viewing direction
+  double min_dist = 0, max_dist = 0;  // scale-invariance range
+  int visible = 1, found = 1;         // for culling: found / visible ratio
+  int64_t first_kf_id = 0;
+  bool bad = false;
+  // Tracking scratch (avoid duplicates within one frame).
+  int64_t last_frame_seen = -1, track_ref_frame = -1;
+
+  double FoundRatio() const { return static_cast<double>(found) / visible; }
+  int PredictLevel(double dist, const FrontCamera& cam) const;
+};
+
+struct KeyFrame {
+  int64_t id = -1;
+  int64_t frame_id = -1;
+  Timestamp timestamp = 0;
+  Se3 T_cw;
+  std::shared_ptr<const Features> f;
+  std::vector<Landmark*> points;      // per keypoint, nullptr for none
+  std::map<KeyFrame*, int> covis;     // covisibility weights (shared points)
+  std::vector<KeyFrame*> ordered_covis;
+  bool bad = false;
+  bool fixed = false;                 // first keyframe: gauge
+  // Set when culled: the keyframe it was expressed against, so frames that
+  // referenced it still follow later corrections (T_cw = T_parent_rel * parent->T_cw).
+  KeyFrame* parent = nullptr;
+  Se3 T_rel_parent;
+  // Current world->camera of a possibly culled keyframe (follows parents).
+  Se3 PoseFollowingParents() const;
+  int64_t ba_local_for = -1, ba_fixed_for = -1, local_for_frame = -1;
+
+  Eigen::Vector3d Centre() const { return -(T_cw.R().transpose() * T_cw.translation()); }
+  std::vector<KeyFrame*> BestCovisibles(int n) const;
+  int TrackedPoints(int min_obs) const;
+  double MedianDepth() const;
+};
+
+class Map {
+ public:
+  std::mutex mutex;
+  std::map<int64_t, std::unique_ptr<KeyFrame>> keyframes;  // by id (= creation order)
+  std::map<int64_t, std::unique_ptr<Landmark>> points;
+
+  KeyFrame* AddKeyFrame(std::unique_ptr<KeyFrame> kf);
+  Landmark* NewPoint(const Eigen::Vector3d& pos, KeyFrame* ref);
+  int64_t NextKeyFrameId() const { return next_kf_id_; }
+  int NumGoodKeyFrames() const;
+
+  static void AddObservation(Landmark* p, KeyFrame* kf, int idx);
+  static void EraseObservation(Landmark* p, KeyFrame* kf);
+  static void SetBad(Landmark* p);
+  static void SetBad(KeyFrame* kf);
+  // Replace p by q in every keyframe that observes p.
+  static void Replace(Landmark* p, Landmark* q);
+  static void UpdateNormalAndDepth(Landmark* p, const FrontCamera& cam);
+  static void ComputeDescriptor(Landmark* p);
+  static void UpdateConnections(KeyFrame* kf);
+
+  // Export (caller holds the mutex).
+  Submap Export(int64_t submap_id, const CameraIntrinsics& cam) const;
+
+ private:
+  int64_t next_kf_id_ = 0, next_point_id_ = 0;
+};
+
+}  // namespace rumi
+
+namespace rumi {
+
+// A frame being tracked (not a keyframe).
+struct TrackFrame {
+  int64_t id = -1;
+  Timestamp timestamp = 0;
+  std::shared_ptr<const Features> f;
+  Se3 T_cw;
+  std::vector<Landmark*> points;  // per keypoint
+  std::vector<bool> outlier;
+  KeyFrame* ref_kf = nullptr;
+  void Reset(size_t n) {
+    points.assign(n, nullptr);
+    outlier.assign(n, false);
+  }
+  int NumMatches() const;
+};
+
+}  // namespace rumi
