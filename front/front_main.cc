@@ -21,6 +21,7 @@
 #include "common/trajectory.h"
 #include "common/trajectory_eval.h"
 #include "front/front.h"
+#include "front/front_pipeline.h"
 
 namespace rumi {
 namespace {
@@ -54,7 +55,30 @@ int Main(int argc, char** argv) {
   bool sync = false, no_pace = false;
   app.add_flag("--no-pace", no_pace, "feed frames as fast as possible instead of at capture rate");
   app.add_flag("--sync", sync, "run local mapping inline (deterministic; not realtime)");
+  // Pipeline mode (docs/eval.md): replay, ship windows and submaps over shm.
+  std::string instance, rate = "1.0";
+  double resend_interval_s = 2.0, wait_for_consumers_s = 30.0;
+  app.add_option("--instance", instance, "ipc instance: run as the pipeline's front (docs/eval.md); needs --out");
+  app.add_option("--rate", rate, "with --instance: replay at R x the recorded rate, or max");
+  app.add_option("--resend-interval", resend_interval_s,
+                 "with --instance: seconds between resends of the current submap");
+  app.add_option("--wait-for-consumers", wait_for_consumers_s,
+                 "with --instance: bound on the final wait for back/manager");
   CLI11_PARSE(app, argc, argv);
+  if (!instance.empty()) {
+    FrontPipelineArgs pa;
+    pa.dataset_kind = kind_name;
+    pa.dataset_path = path;
+    pa.config_path = config_path;
+    pa.out_dir = out_dir;
+    pa.instance = instance;
+    pa.rate = rate;
+    pa.max_frames = max_frames;
+    pa.resend_interval_s = resend_interval_s;
+    pa.wait_for_consumers_s = wait_for_consumers_s;
+    if (app.count("--log")) pa.log_level = log_level;
+    return RunFrontPipeline(pa);
+  }
   SetupLogging("front", log_level);
   cv::setNumThreads(1);  // 2 shared cores: OpenCV threads would fight tracking + mapping
 

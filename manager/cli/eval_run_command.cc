@@ -499,10 +499,12 @@ int RunEval(const EvalRunArgs& a) {
                                  with_config({back_bin, "--instance", instance, "--work", (run_dir / "back").string()}),
                                  (run_dir / "rumi-back.log").string(), &pgid));
       }
-      children.push_back(Spawn("rumi-front",
-                               with_config({front_bin, "--dataset", a.dataset, a.path, "--out",
-                                            run_dir.string(), "--instance", instance, "--rate",
-                                            rate > 0 ? a.rate : std::string("max")}),
+      std::vector<std::string> front_args = {front_bin, "--dataset", a.dataset, a.path, "--out",
+                                             run_dir.string(), "--instance", instance, "--rate",
+                                             rate > 0 ? a.rate : std::string("max")};
+      // Front alone: no consumer will ever attach, so don't wait for one at the end.
+      if (a.no_back) front_args.insert(front_args.end(), {"--wait-for-consumers", "0"});
+      children.push_back(Spawn("rumi-front", with_config(front_args),
                                (run_dir / "rumi-front.log").string(), &pgid));
     } catch (const std::exception& e) {
       KillGroup(pgid, &children);
