@@ -13,6 +13,8 @@ bool BackOptions::Check(std::string* why) const {
   if (num_threads < 1 || num_threads > 64) return fail("num_threads must be in [1, 64]");
   if (max_num_features < 64 || max_num_features > 65536)
     return fail("max_num_features must be in [64, 65536]");
+  if (!(sift_peak_threshold >= 0.0 && sift_peak_threshold <= 1.0))
+    return fail("sift_peak_threshold must be in [0, 1]");
   if (sift_first_octave < -1 || sift_first_octave > 2) return fail("sift_first_octave must be in [-1, 2]");
   if (matcher != "exhaustive" && matcher != "sequential")
     return fail("matcher must be 'exhaustive' or 'sequential' (got '" + matcher + "')");
@@ -37,6 +39,8 @@ void ReadOptions(ConfigSection& s, BackOptions* o) {
   s.Read("keep_workspaces", &o->keep_workspaces);
   s.ReadInRange("num_threads", &o->num_threads, 1, 64);
   s.ReadInRange("max_num_features", &o->max_num_features, 64, 65536);
+  s.Read("normalize_contrast", &o->normalize_contrast);
+  s.ReadInRange("sift_peak_threshold", &o->sift_peak_threshold, 0.0, 1.0);
   s.ReadInRange("sift_first_octave", &o->sift_first_octave, -1, 2);
   if (s.Read("matcher", &o->matcher) && o->matcher != "exhaustive" && o->matcher != "sequential")
     s.Fail("matcher", "must be 'exhaustive' or 'sequential'");

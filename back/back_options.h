@@ -20,6 +20,10 @@ struct BackOptions {
   int min_registered_images = 3;       // smaller models are dropped (also Mapper.min_model_size)
   int max_queue_windows = 2;           // windows waiting; the oldest is dropped beyond it
   bool low_priority = true;            // SCHED_IDLE (or nice 19) for rumi-back and COLMAP
+  // Dark or washed-out frames (the ones the front loses) give SIFT too few
+  // features at COLMAP's absolute peak threshold: stretch their grey levels.
+  bool normalize_contrast = true;
+  double sift_peak_threshold = 0.0;    // COLMAP SiftExtraction.peak_threshold; 0 = COLMAP's default
 
   bool Check(std::string* why = nullptr) const;
   // Resolved workspace root (workspace_dir or the default under $TMPDIR).

@@ -105,6 +105,26 @@ class WorkspaceGuard {
   bool keep_;
 };
 
+// Linear stretch of a low-contrast 8-bit image so that its 0.5 and 99.5
+// percentiles span 0..255. Well-exposed frames (spread >= 128) are kept as
+// they are; only geometry-free grey levels change, never pixel positions.
+cv::Mat StretchContrast(const cv::Mat& img) {
+  if (img.type() != CV_8UC1 || img.empty()) return img;
+  int hist[256] = {0};
+  for (int r = 0; r < img.rows; ++r) {
+    const uint8_t* p = img.ptr<uint8_t>(r);
+    for (int c = 0; c < img.cols; ++c) ++hist[p[c]];
+  }
+  const double n = static_cast<double>(img.total());
+  int lo = 0, hi = 255;
+  for (double acc = 0; lo < 255 && (acc += hist[lo]) < 0.005 * n;) ++lo;
+  for (double acc = 0; hi > 0 && (acc += hist[hi]) < 0.005 * n;) --hi;
+  if (hi - lo >= 128 || hi <= lo) return img;
+  cv::Mat out;
+  img.convertTo(out, CV_8U, 255.0 / (hi - lo), -255.0 * lo / (hi - lo));
+  return out;
+}
+
 }  // namespace
 
 BackSubmapBuilder::BackSubmapBuilder(const BackOptions& options, int64_t first_submap_id)
@@ -152,7 +172,8 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
     const bool undistort = HasDistortion(window.camera);
     PinholeCamera camera(window.camera);
     for (const WindowFrame& f : window.frames) {
-      const cv::Mat img = undistort ? camera.UndistortImage(f.image) : f.image;
+      cv::Mat img = undistort ? camera.UndistortImage(f.image) : f.image;
+      if (options_.normalize_contrast) img = StretchContrast(img);
       const fs::path p = images / ColmapImageName(f.timestamp);
       bool written = false;
       try {
@@ -185,6 +206,10 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
                     "--SiftExtraction.max_num_features", std::to_string(options_.max_num_features),
                     "--SiftExtraction.first_octave", std::to_string(options_.sift_first_octave)},
                    &res.times.feature_extraction_s, &res.times.feature_extraction_cpu_s});
+  if (options_.sift_peak_threshold > 0) {
+    steps.back().args.insert(steps.back().args.end(),
+                             {"--SiftExtraction.peak_threshold", Num(options_.sift_peak_threshold)});
+  }
   if (options_.matcher == "sequential") {
     steps.push_back({"matching",
                      {"sequential_matcher", "--database_path", db.string(),
