@@ -30,4 +30,13 @@ struct CommonPoints {
 CommonPoints FindCommonPoints(const Submap& front, const Submap& back,
                               const std::vector<KeyframePair>& pairs, double radius_px);
 
+// As above, plus frame pairs: the front points observed by a frame pair's
+// front keyframes are projected with the tracked frame's pose (in front of
+// the camera, inside the image), and each back keypoint with a map point takes
+// the nearest projection within radius_px; it is dropped when a second
+// projection lies within the radius and the nearest is not clearly closer
+// (d1 >= ratio * d2). Votes add to those of the keyframe pairs.
+CommonPoints FindCommonPoints(const Submap& front, const Submap& back, const std::vector<KeyframePair>& pairs,
+                              const std::vector<FramePair>& frame_pairs, double radius_px, double ratio = 0.7);
+
 }  // namespace rumi

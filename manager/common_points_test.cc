@@ -37,6 +37,66 @@ TEST(CommonPoints, RadiusAndMapPointRequired) {
   EXPECT_EQ(c.keypoint_matches, 2);
 }
 
+TEST(CommonPoints, FramePairProjectsNeighbourKeyframePoints) {
+  Submap f, b;
+  f.camera = {640, 480, 500, 500, 320, 240};
+  FrameRecord r;
+  r.state = TrackingState::kTracking;
+  r.T_wc = Se3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(1, 0, 0));
+  f.frames.push_back(r);
+  f.keyframes.resize(1);
+  auto point = [&](int64_t id, const Eigen::Vector3d& X, bool observed) {
+    MapPoint p;
+    p.id = id;
+    p.position = X;
+    f.points.push_back(p);
+    if (observed) AddKeypoint(&f.keyframes[0], 0, 0, id);  // position in the keyframe is irrelevant
+  };
+  point(1, {1, 0, 5}, true);             // -> (320, 240)
+  point(2, {-1.2, 0, 5}, true);          // -> (100, 240)
+  point(3, {-1.185, 0, 5}, true);        // -> (101.5, 240): competes with 2
+  point(4, {0.2, -0.6, -5}, true);       // behind: would be (400, 300)
+  point(5, {4.21, 0, 5}, true);          // -> (641, 240): outside the image
+  point(6, {1.5, 0, 5}, false);          // -> (370, 240) but no neighbour keyframe sees it
+  b.keyframes.resize(1);
+  AddKeypoint(&b.keyframes[0], 321, 240, 20);
+  AddKeypoint(&b.keyframes[0], 100.6f, 240, 21);  // d1 0.6, d2 0.9
+  AddKeypoint(&b.keyframes[0], 400, 300, 22);
+  AddKeypoint(&b.keyframes[0], 639.5f, 240, 23);
+  AddKeypoint(&b.keyframes[0], 370, 240, 24);
+  AddKeypoint(&b.keyframes[0], 320, 241, -1);  // no map point
+  const std::vector<FramePair> fp{{0, 0, 0, {0}}};
+  auto c = FindCommonPoints(f, b, {}, fp, 3.0, 0.5);
+  ASSERT_EQ(c.matches.size(), 1u);
+  EXPECT_EQ(c.matches[0].front_point_id, 1);
+  EXPECT_EQ(c.matches[0].back_point_id, 20);
+  // A looser ratio lets the nearer of the competing projections through.
+  c = FindCommonPoints(f, b, {}, fp, 3.0, 1.0);
+  ASSERT_EQ(c.matches.size(), 2u);
+  EXPECT_EQ(c.matches[1].front_point_id, 2);
+  EXPECT_EQ(c.matches[1].back_point_id, 21);
+  EXPECT_EQ(c.keypoint_matches, 2);
+}
+
+TEST(CommonPoints, ScenarioFramePairsMatchSameScenePoints) {
+  const auto s = testing::MakeScenario(3, 1.0, 1200, true, /*back_on_odd_frames=*/true);
+  const SearchSet every = BuildSearchSet({}, {&s.back.submap}, 0);
+  const auto pairs = PairKeyframes(s.front_a.submap, s.back.submap, every, 100000);
+  ASSERT_TRUE(pairs.empty());
+  const auto fp = PairTrackedFrames(s.front_a.submap, s.back.submap, every, 100000, pairs, 3);
+  ASSERT_EQ(fp.size(), 5u);  // back 31..39 against A's tracked frames
+  const auto c = FindCommonPoints(s.front_a.submap, s.back.submap, pairs, fp, 3.0);
+  std::unordered_map<int64_t, int> scene_of_front, scene_of_back;
+  for (size_t i = 0; i < s.front_a.submap.points.size(); ++i)
+    scene_of_front[s.front_a.submap.points[i].id] = s.front_a.scene_point[i];
+  for (size_t i = 0; i < s.back.submap.points.size(); ++i)
+    scene_of_back[s.back.submap.points[i].id] = s.back.scene_point[i];
+  int correct = 0;
+  for (const auto& m : c.matches) correct += scene_of_front.at(m.front_point_id) == scene_of_back.at(m.back_point_id);
+  EXPECT_GT(c.matches.size(), 100u);
+  EXPECT_GT(double(correct) / c.matches.size(), 0.85);
+}
+
 TEST(CommonPoints, VotingKeepsMostFrequent) {
   Submap f, b;
   f.keyframes.resize(3);

@@ -12,6 +12,8 @@ bool ManagerOptions::Check(std::string* why) const {
   if (pairing_max_dt_ns <= 0) return Fail(why, "pairing_max_dt_ns must be > 0");
   if (search_n < 0) return Fail(why, "search_n must be >= 0");
   if (!(match_radius_px > 0)) return Fail(why, "match_radius_px must be > 0");
+  if (pair_neighbour_keyframes < 1) return Fail(why, "pair_neighbour_keyframes must be >= 1");
+  if (!(pair_ratio > 0 && pair_ratio <= 1)) return Fail(why, "pair_ratio must be in (0, 1]");
   if (min_keyframe_pairs < 1) return Fail(why, "min_keyframe_pairs must be >= 1");
   if (min_common_points < 3) return Fail(why, "min_common_points must be >= 3");
   if (!(min_inlier_ratio >= 0 && min_inlier_ratio < 1)) return Fail(why, "min_inlier_ratio must be in [0, 1)");
@@ -36,6 +38,9 @@ void ReadOptions(ConfigSection& s, ManagerOptions* o) {
   s.ReadInRange<int64_t>("pairing_max_dt_ns", &o->pairing_max_dt_ns, 1, 1000000000);
   s.ReadInRange("search_n", &o->search_n, 0, 100000);
   s.ReadInRange("match_radius_px", &o->match_radius_px, 1e-3, 100.0);
+  s.Read("pair_tracked_frames", &o->pair_tracked_frames);
+  s.ReadInRange("pair_neighbour_keyframes", &o->pair_neighbour_keyframes, 1, 1000);
+  s.ReadInRange("pair_ratio", &o->pair_ratio, 1e-3, 1.0);
   s.ReadInRange("min_keyframe_pairs", &o->min_keyframe_pairs, 1, 100000);
   s.ReadInRange("min_common_points", &o->min_common_points, 3, 1000000);
   s.ReadInRange("min_inlier_ratio", &o->min_inlier_ratio, 0.0, 0.99);

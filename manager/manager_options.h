@@ -16,6 +16,15 @@ struct ManagerOptions {
   int search_n = 10;
   // M_com: keypoints of paired keyframes within this radius (undistorted px).
   double match_radius_px = 3.0;
+  // Also pair a back keyframe with a tracked front frame (FrameRecord) when no
+  // front keyframe has its timestamp: front points of the nearest keyframes
+  // (pair_neighbour_keyframes before and after) are projected with the
+  // frame's pose and matched by position; the match is dropped when another
+  // projection lies within the radius and the nearest is not closer than
+  // pair_ratio times the runner-up.
+  bool pair_tracked_frames = true;
+  int pair_neighbour_keyframes = 3;
+  double pair_ratio = 0.7;
   // A merge needs at least this many keyframe pairs and common points.
   int min_keyframe_pairs = 1;
   int min_common_points = 20;

@@ -13,11 +13,14 @@ TEST(ManagerOptions, DefaultsFollowThePaper) {
   EXPECT_EQ(o.min_inlier_ratio, 0.1);
   EXPECT_EQ(o.culling_redundant_ratio, 0.9);
   EXPECT_EQ(o.culling_min_observers, 3);
+  EXPECT_TRUE(o.pair_tracked_frames);
+  EXPECT_EQ(o.pair_ratio, 0.7);
 }
 
 TEST(ManagerOptions, ReadsSection) {
   auto root = LoadConfigString("manager:\n  search_n: 5\n  robust_loss: cauchy\n  match_radius_px: 2.5\n"
-                               "  pairing_max_dt_ns: 50000\n");
+                               "  pairing_max_dt_ns: 50000\n  pair_tracked_frames: false\n"
+                               "  pair_neighbour_keyframes: 2\n  pair_ratio: 0.8\n");
   auto s = root.Child("manager");
   ManagerOptions o;
   ReadOptions(s, &o);
@@ -26,6 +29,9 @@ TEST(ManagerOptions, ReadsSection) {
   EXPECT_EQ(o.robust_loss, "cauchy");
   EXPECT_EQ(o.match_radius_px, 2.5);
   EXPECT_EQ(o.pairing_max_dt_ns, 50000);
+  EXPECT_FALSE(o.pair_tracked_frames);
+  EXPECT_EQ(o.pair_neighbour_keyframes, 2);
+  EXPECT_EQ(o.pair_ratio, 0.8);
 }
 
 TEST(ManagerOptions, RejectsBadValues) {
@@ -44,6 +50,9 @@ TEST(ManagerOptions, RejectsBadValues) {
   }
   EXPECT_THROW(bad("min_inlier_ratio: 1.5"), ConfigError);
   EXPECT_THROW(bad("search_n: many"), ConfigError);
+  EXPECT_THROW(bad("pair_tracked_frames: maybe"), ConfigError);
+  EXPECT_THROW(bad("pair_ratio: 0"), ConfigError);
+  EXPECT_THROW(bad("pair_neighbour_keyframes: 0"), ConfigError);
   EXPECT_THROW(bad("serch_n: 3"), ConfigError);  // typo: unknown key
   try {
     bad("match_radius_px: -1");

@@ -56,6 +56,7 @@ nlohmann::json ReportJson(const MergeReport& r) {
                       {"merged", r.merged},
                       {"reason", r.reason},
                       {"keyframe_pairs", r.keyframe_pairs},
+                      {"frame_pairs", r.frame_pairs},
                       {"common_points", r.common_points},
                       {"inliers", r.inliers},
                       {"inlier_ratio", r.inlier_ratio},

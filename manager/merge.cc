@@ -38,11 +38,17 @@ MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& sear
 
   auto t0 = std::chrono::steady_clock::now();
   const std::vector<KeyframePair> pairs = PairKeyframes(F, B, search, options.pairing_max_dt_ns);
+  std::vector<FramePair> frame_pairs;
+  if (options.pair_tracked_frames)
+    frame_pairs = PairTrackedFrames(F, B, search, options.pairing_max_dt_ns, pairs, options.pair_neighbour_keyframes);
   r.keyframe_pairs = int(pairs.size());
-  if (r.keyframe_pairs < options.min_keyframe_pairs)
-    return Reject(r, "too few keyframe pairs (" + std::to_string(pairs.size()) + ")");
-  const CommonPoints common = FindCommonPoints(F, B, pairs, options.match_radius_px);
-  const AlignmentResult align = AlignSubmaps(F, B, pairs, common, options);
+  r.frame_pairs = int(frame_pairs.size());
+  if (r.keyframe_pairs + r.frame_pairs < options.min_keyframe_pairs)
+    return Reject(r, "too few keyframe pairs (" + std::to_string(pairs.size()) + " + " +
+                         std::to_string(frame_pairs.size()) + " frame pairs)");
+  const CommonPoints common =
+      FindCommonPoints(F, B, pairs, frame_pairs, options.match_radius_px, options.pair_ratio);
+  const AlignmentResult align = AlignSubmaps(F, B, pairs, common, options, frame_pairs);
   r.common_points = align.num_point_matches;
   r.inliers = align.num_inliers;
   r.inlier_ratio = align.inlier_ratio;
@@ -90,15 +96,17 @@ MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& sear
   if (options.welding_ba) {
     std::vector<int64_t> seeds;
     for (const auto& p : pairs) seeds.push_back(Fm.keyframes[p.front_keyframe].id);
+    for (const auto& p : frame_pairs)
+      for (int k : p.front_keyframes) seeds.push_back(Fm.keyframes[k].id);
     const auto window = WeldingWindow(Fm, seeds, options.welding_min_covisible, options.welding_max_keyframes);
     r.welding = WeldWindow(map, front, back, window, fused, options);
   }
   r.seconds_weld = Since(t0);
   r.merged = true;
   spdlog::info(
-      "merged {} with {} ({} side moved): {} pairs, {} common points, inlier ratio {:.2f} ({}), scale {:.4f}, refine rmse "
+      "merged {} with {} ({} side moved): {} + {} frame pairs, {} common points, inlier ratio {:.2f} ({}), scale {:.4f}, refine rmse "
       "{:.2f} -> {:.2f} px, {} fused, welding {} kf {:.2f} -> {:.2f} px",
-      ToString(r.front), ToString(r.back), r.front_moved ? "front" : "back", r.keyframe_pairs, r.common_points, r.inlier_ratio, r.init_method,
+      ToString(r.front), ToString(r.back), r.front_moved ? "front" : "back", r.keyframe_pairs, r.frame_pairs, r.common_points, r.inlier_ratio, r.init_method,
       r.S_bf.scale(), r.refine_initial_rmse_px, r.refine_final_rmse_px, r.fused_points,
       r.welding.window_keyframes, r.welding.initial_rmse_px, r.welding.final_rmse_px);
   return r;

@@ -18,6 +18,7 @@ struct MergeReport {
   std::string reason;  // why not (empty when merged)
   SubmapKey front, back;
   int keyframe_pairs = 0;
+  int frame_pairs = 0;  // back keyframe <-> tracked front frame (not a keyframe)
   int common_points = 0;
   int inliers = 0;
   double inlier_ratio = 0;

@@ -154,6 +154,71 @@ TEST(Merge, SmallerComponentMovesEvenWithSeveralSubmaps) {
   EXPECT_LT(rot, 0.015);
 }
 
+TEST(Merge, PairsBackKeyframesWithTrackedFrontFrames) {
+  const auto s = testing::MakeScenario(3, 1.0, 1200, true, /*back_on_odd_frames=*/true);
+  for (const Keyframe& bk : s.back.submap.keyframes) {
+    for (const Submap* f : {&s.front_a.submap, &s.front_b.submap})
+      for (const Keyframe& fk : f->keyframes) ASSERT_NE(bk.timestamp, fk.timestamp);
+  }
+  auto fill = [&](GlobalMap* map) {
+    return std::vector<int>{map->AddSubmap(s.front_a.submap), map->AddSubmap(s.back.submap),
+                            map->AddSubmap(s.front_b.submap)};
+  };
+  // Keyframe-keyframe pairing alone: nothing to pair, nothing merges.
+  {
+    GlobalMap map;
+    const auto ids = fill(&map);
+    ManagerOptions o;
+    o.pair_tracked_frames = false;
+    const auto reports = MergeAll(&map, o);
+    ASSERT_EQ(reports.size(), 2u);
+    for (const auto& r : reports) {
+      EXPECT_FALSE(r.merged);
+      EXPECT_EQ(r.keyframe_pairs, 0);
+      EXPECT_EQ(r.frame_pairs, 0);
+    }
+    EXPECT_FALSE(map.Connected(ids[0], ids[1]));
+  }
+  // With tracked frames: back keyframes 31..39 pair with A's frames, 71..79
+  // with B's, and the whole chain merges.
+  GlobalMap map;
+  const auto ids = fill(&map);
+  double rot = 0;
+  EXPECT_GT(AlignedCentreRmse(map, s, ids, &rot), 0.5);
+  const auto reports = MergeAll(&map, ManagerOptions());
+  int merged = 0;
+  for (const auto& r : reports) {
+    merged += r.merged;
+    EXPECT_TRUE(r.merged) << r.reason;
+    EXPECT_EQ(r.keyframe_pairs, 0);
+    EXPECT_EQ(r.frame_pairs, 5);
+    EXPECT_GT(r.common_points, 100);
+    EXPECT_GT(r.inlier_ratio, 0.8);
+    EXPECT_LT(r.welding.final_rmse_px, 2.0);
+  }
+  EXPECT_EQ(merged, 2);
+  EXPECT_TRUE(map.Connected(ids[0], ids[2]));
+  const double rmse = AlignedCentreRmse(map, s, ids, &rot);
+  spdlog::info("frame pairs: keyframe centre RMSE after one Sim(3) {:.4f} m, max rotation error {:.5f} rad", rmse,
+               rot);
+  EXPECT_LT(rmse, 0.03);
+  EXPECT_LT(rot, 0.015);
+  // The global trajectory (all frame records) against the truth, one Sim(3).
+  // Frames 42, 44, ..., 68: lost by the front and not back keyframes.
+  const auto traj = ComputeGlobalTrajectory(map);
+  ASSERT_EQ(traj.size(), 111u - 14u);
+  std::vector<Eigen::Vector3d> est, truth;
+  for (const GlobalPose& p : traj) {
+    const int f = int((p.timestamp - s.scene.timestamps[0]) / 33333333);
+    ASSERT_EQ(s.scene.timestamps[f], p.timestamp);
+    est.push_back(p.T_wc.translation());
+    truth.push_back(s.scene.T_wc[f].translation());
+  }
+  const UmeyamaResult u = UmeyamaAlign(est, truth, true);
+  ASSERT_TRUE(u.ok);
+  EXPECT_LT(u.rmse, 0.03);
+}
+
 TEST(Merge, RejectsBackSubmapOfAnotherScene) {
   auto s = testing::MakeScenario();
   // Same timestamps, different world: pairs exist, M_com is random.

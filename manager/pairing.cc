@@ -78,4 +78,51 @@ std::vector<KeyframePair> PairKeyframes(const Submap& front, const Submap& back,
   return pairs;
 }
 
+std::vector<FramePair> PairTrackedFrames(const Submap& front, const Submap& back, const SearchSet& search,
+                                         int64_t max_dt_ns, const std::vector<KeyframePair>& taken,
+                                         int neighbours) {
+  std::vector<FramePair> out;
+  if (front.keyframes.empty() || neighbours < 1) return out;
+  std::vector<int> frames;  // tracked frames of this submap, by time
+  for (size_t i = 0; i < front.frames.size(); ++i) {
+    const FrameRecord& r = front.frames[i];
+    if (r.state == TrackingState::kTracking && (r.submap_id < 0 || r.submap_id == front.id)) frames.push_back(int(i));
+  }
+  std::sort(frames.begin(), frames.end(),
+            [&](int a, int b) { return front.frames[a].timestamp < front.frames[b].timestamp; });
+  std::vector<int> kfs(front.keyframes.size());
+  std::iota(kfs.begin(), kfs.end(), 0);
+  std::sort(kfs.begin(), kfs.end(),
+            [&](int a, int b) { return front.keyframes[a].timestamp < front.keyframes[b].timestamp; });
+  std::vector<char> paired(back.keyframes.size(), 0);
+  for (const KeyframePair& p : taken)
+    if (p.back_keyframe >= 0 && p.back_keyframe < int(paired.size())) paired[p.back_keyframe] = 1;
+  for (size_t b = 0; b < back.keyframes.size(); ++b) {
+    const Timestamp t = back.keyframes[b].timestamp;
+    if (paired[b] || !search.Contains(t, max_dt_ns)) continue;
+    const auto it = std::lower_bound(frames.begin(), frames.end(), t,
+                                     [&](int i, Timestamp v) { return front.frames[i].timestamp < v; });
+    int best = -1;
+    int64_t best_dt = max_dt_ns;
+    for (auto c : {it, it == frames.begin() ? frames.end() : it - 1}) {
+      if (c == frames.end()) continue;
+      const int64_t d = AbsDiff(front.frames[*c].timestamp, t);
+      if (d < best_dt) {
+        best = *c;
+        best_dt = d;
+      }
+    }
+    if (best < 0) continue;
+    FramePair fp{best, int(b), t - front.frames[best].timestamp, {}};
+    const Timestamp tf = front.frames[best].timestamp;
+    const auto k = std::lower_bound(kfs.begin(), kfs.end(), tf,
+                                    [&](int i, Timestamp v) { return front.keyframes[i].timestamp < v; });
+    const long pos = long(k - kfs.begin());
+    for (long j = std::max(0L, pos - neighbours); j < std::min(long(kfs.size()), pos + neighbours); ++j)
+      fp.front_keyframes.push_back(kfs[size_t(j)]);
+    out.push_back(std::move(fp));
+  }
+  return out;
+}
+
 }  // namespace rumi

@@ -44,4 +44,22 @@ SearchSet BuildSearchSet(const std::vector<const Submap*>& front_submaps,
 std::vector<KeyframePair> PairKeyframes(const Submap& front, const Submap& back,
                                         const SearchSet& search, int64_t max_dt_ns);
 
+// A back keyframe whose image the front tracked without making it a keyframe
+// (the sampler ships frames every `inter` frames, the front makes keyframes
+// when it needs them, so the two rarely coincide). The front side is the
+// frame's pose; its map points come from the front keyframes nearest in time.
+struct FramePair {
+  int front_frame = -1;    // index into front.frames (state kTracking)
+  int back_keyframe = -1;  // index into back.keyframes
+  int64_t dt_ns = 0;       // back - front
+  std::vector<int> front_keyframes;  // indices into front.keyframes, nearest in time
+};
+
+// Back keyframes in the search set that got no keyframe pair (`taken`) are
+// paired with the tracked front frame nearest in time when |dt| < max_dt_ns;
+// `neighbours` front keyframes before and as many after it are attached.
+std::vector<FramePair> PairTrackedFrames(const Submap& front, const Submap& back, const SearchSet& search,
+                                         int64_t max_dt_ns, const std::vector<KeyframePair>& taken,
+                                         int neighbours);
+
 }  // namespace rumi

@@ -38,6 +38,46 @@ TEST(Pairing, ThresholdIsStrictlyBelow100us) {
   EXPECT_EQ(pairs[1].dt_ns, -99999);
 }
 
+TEST(Pairing, TrackedFramesWhereNoKeyframePair) {
+  const Timestamp t = 1000000000000LL, d = 33333333;
+  Submap front = WithKeyframesAt({t, t + 3 * d, t + 6 * d, t + 9 * d, t + 12 * d}, SubmapSource::kFront);
+  front.id = 7;
+  for (int i = 0; i <= 12; ++i) {
+    FrameRecord r;
+    r.timestamp = t + i * d;
+    r.state = i == 4 ? TrackingState::kLost : TrackingState::kTracking;
+    r.submap_id = i == 8 ? 9 : 7;  // frame 8 belongs to another submap
+    front.frames.push_back(r);
+  }
+  const Submap back = WithKeyframesAt({t + d, t + 3 * d, t + 4 * d, t + 5 * d + 99999, t + 8 * d,
+                                       t + 7 * d - 100000},
+                                      SubmapSource::kBack);
+  SearchSet all;
+  all.set_all(true);
+  const auto kf_pairs = PairKeyframes(front, back, all, 100000);
+  ASSERT_EQ(kf_pairs.size(), 1u);
+  EXPECT_EQ(kf_pairs[0].back_keyframe, 1);
+  const auto fp = PairTrackedFrames(front, back, all, 100000, kf_pairs, 2);
+  ASSERT_EQ(fp.size(), 2u);
+  EXPECT_EQ(fp[0].back_keyframe, 0);
+  EXPECT_EQ(fp[0].front_frame, 1);
+  EXPECT_EQ(fp[0].dt_ns, 0);
+  EXPECT_EQ(fp[0].front_keyframes, (std::vector<int>{0, 1, 2}));
+  EXPECT_EQ(fp[1].back_keyframe, 3);
+  EXPECT_EQ(fp[1].front_frame, 5);
+  EXPECT_EQ(fp[1].dt_ns, 99999);
+  EXPECT_EQ(fp[1].front_keyframes, (std::vector<int>{0, 1, 2, 3}));
+  // Without the keyframe pair, back keyframe 1 pairs with frame 3 instead.
+  EXPECT_EQ(PairTrackedFrames(front, back, all, 100000, {}, 2).size(), 3u);
+  // Only members of F^search.
+  SearchSet some;
+  some.Add(t + 5 * d);
+  const auto fs = PairTrackedFrames(front, back, some, 100000, kf_pairs, 1);
+  ASSERT_EQ(fs.size(), 1u);
+  EXPECT_EQ(fs[0].back_keyframe, 3);
+  EXPECT_EQ(fs[0].front_keyframes, (std::vector<int>{1, 2}));
+}
+
 TEST(Pairing, OneToOneNearest) {
   const Timestamp t = 5000000000LL;
   // Two back keyframes near one front keyframe: only the nearer pairs.

@@ -83,11 +83,12 @@ RansacSim3Result RansacSim3(const std::vector<Eigen::Vector3d>& src, const std::
 }
 
 AlignmentResult AlignSubmaps(const Submap& front, const Submap& back, const std::vector<KeyframePair>& pairs,
-                             const CommonPoints& common, const ManagerOptions& options) {
+                             const CommonPoints& common, const ManagerOptions& options,
+                             const std::vector<FramePair>& frame_pairs) {
   AlignmentResult r;
-  r.num_keyframe_pairs = int(pairs.size());
+  r.num_keyframe_pairs = int(pairs.size() + frame_pairs.size());
   if (r.num_keyframe_pairs < options.min_keyframe_pairs) {
-    r.reason = "too few keyframe pairs (" + std::to_string(pairs.size()) + " < " +
+    r.reason = "too few keyframe pairs (" + std::to_string(r.num_keyframe_pairs) + " < " +
                std::to_string(options.min_keyframe_pairs) + ")";
     return r;
   }
@@ -118,10 +119,14 @@ AlignmentResult AlignSubmaps(const Submap& front, const Submap& back, const std:
   // Candidate 1: keyframe centres (needs 3 non-collinear pairs).
   Sim3 best;
   bool have = false;
-  if (pairs.size() >= 3) {
+  if (pairs.size() + frame_pairs.size() >= 3) {
     std::vector<Eigen::Vector3d> cf, cb;
     for (const KeyframePair& p : pairs) {
       cf.push_back(front.keyframes[p.front_keyframe].T_wc().translation());
+      cb.push_back(back.keyframes[p.back_keyframe].T_wc().translation());
+    }
+    for (const FramePair& p : frame_pairs) {
+      cf.push_back(front.frames[p.front_frame].T_wc.translation());
       cb.push_back(back.keyframes[p.back_keyframe].T_wc().translation());
     }
     const UmeyamaResult u = UmeyamaAlign(cf, cb, true);

@@ -42,8 +42,11 @@ struct AlignmentResult {
   std::vector<char> inliers;  // per common.matches
 };
 
+// frame_pairs count towards min_keyframe_pairs and add their centres (the
+// tracked frame's) to the keyframe-centre candidate.
 AlignmentResult AlignSubmaps(const Submap& front, const Submap& back, const std::vector<KeyframePair>& pairs,
-                             const CommonPoints& common, const ManagerOptions& options);
+                             const CommonPoints& common, const ManagerOptions& options,
+                             const std::vector<FramePair>& frame_pairs = {});
 
 // Median distance of the points to their centroid: the scene scale of a submap.
 double SceneRadius(const std::vector<Eigen::Vector3d>& points);

@@ -14,8 +14,12 @@ struct Scenario {
 
 // pose_noise: keyframe and frame poses off the truth by ~1 cm / 0.1 deg, as
 // estimated poses are (keypoints are always projected from the truth).
+// back_on_odd_frames: back keyframes on frames 31, 33, ..., 79 only, so that no
+// back keyframe shares a timestamp with a front keyframe (even frames); the
+// fronts still have tracked FrameRecords for them (as with the sampler's
+// every-`inter` frames against the front's own keyframe choice).
 inline Scenario MakeScenario(uint32_t seed = 3, double pixel_noise = 1.0, int num_points = 1200,
-                             bool pose_noise = true) {
+                             bool pose_noise = true, bool back_on_odd_frames = false) {
   Scenario s;
   SyntheticSceneOptions so;
   so.num_points = num_points;
@@ -51,9 +55,9 @@ inline Scenario MakeScenario(uint32_t seed = 3, double pixel_noise = 1.0, int nu
   SyntheticSubmapOptions b = a;
   b.id = 1;
   b.source = SubmapSource::kBack;
-  b.first_frame = 30;
-  b.last_frame = 80;
-  b.keyframe_step = 1;
+  b.first_frame = back_on_odd_frames ? 31 : 30;
+  b.last_frame = back_on_odd_frames ? 79 : 80;
+  b.keyframe_step = back_on_odd_frames ? 2 : 1;
   b.S_lw = s.S_bw;
   b.max_octave = 0;
   b.frame_records = false;
