@@ -20,8 +20,8 @@ struct IpcOptions {
   // One slot holds a whole window: ~ (len + max_s2 + S3) grey images. 48 MiB
   // is ~160 VGA frames. Segments are tmpfs pages: only touched slots use RAM.
   int64_t window_slot_bytes = 48ll << 20;
-  int submap_slots = 8;
-  int64_t submap_slot_bytes = 16ll << 20;
+  int submap_slots = 4;
+  int64_t submap_slot_bytes = 96ll << 20;  // a 200-keyframe ORB submap encodes to ~20 MB
   std::string overflow_policy = "drop_newest";  // or "drop_oldest"
   bool Check(std::string* why = nullptr) const;
   OverflowPolicy policy() const;
