@@ -329,6 +329,7 @@ void Front::Initialize() {
   state_ = TrackingState::kTracking;
   kf_inserted_ = true;
   last_inliers_ = tracked;
+  kf_peak_inliers_ = tracked;
   spdlog::info("front: submap {} initialised ({}), {} points, parallax {:.1f} deg, RH {:.2f}, gap {} frames",
                submap_id_, r.model, tracked, r.parallax_deg, r.score_ratio, static_cast<int>(gap));
   if (pending_link_) {
@@ -381,6 +382,7 @@ bool Front::TrackCurrent() {
   // Outliers do not propagate to the next frame.
   for (size_t i = 0; i < cur_.points.size(); ++i)
     if (cur_.outlier[i]) { cur_.points[i] = nullptr; cur_.outlier[i] = false; }
+  kf_peak_inliers_ = std::max(kf_peak_inliers_, inliers);
   if (NeedNewKeyFrame(inliers)) {
     CreateKeyFrame();
     if (!options_.local_mapping_thread) {
@@ -499,8 +501,18 @@ bool Front::NeedNewKeyFrame(int inliers) {
   const double fps = options_.fps > 0 ? options_.fps : (frame_interval_s_ > 0 ? 1.0 / frame_interval_s_ : 10.0);
   const bool c1a = since >= static_cast<int64_t>(std::round(fps));
   const bool c1b = mapper_->Idle();
-  const bool c2 = inliers < options_.kf_tracked_ratio * ref_tracked && inliers > 15;
-  return (c1a || c1b) && c2;
+  // The reference count only includes points seen by >= 3 keyframes, so a
+  // young reference (just inserted, its points freshly triangulated) has few
+  // and tracking could decay through a whole turn with no keyframe (seen on
+  // `smooth`: inliers 309 -> 134 over 0.8 s, then a scale collapse). Hence
+  // also: tracking has weakened against what the last keyframe tracked, and,
+  // much weaker, a keyframe even while mapping is busy. The peak since the
+  // last keyframe is the baseline: the keyframe's own frame sees few points,
+  // the next ones also the points triangulated from it.
+  const bool weak = inliers < options_.kf_weak_ratio * kf_peak_inliers_;
+  const bool c1c = inliers < 0.5 * options_.kf_weak_ratio * kf_peak_inliers_;
+  const bool c2 = (inliers < options_.kf_tracked_ratio * ref_tracked || weak) && inliers > 15;
+  return (c1a || c1b || c1c) && c2;
 }
 
 void Front::CreateKeyFrame() {
@@ -517,6 +529,7 @@ void Front::CreateKeyFrame() {
   }
   ref_kf_ = kf;
   last_kf_frame_ = cur_.id;
+  kf_peak_inliers_ = last_inliers_;
   kf_inserted_ = true;
   mapper_->Push(kf);
 }
@@ -572,6 +585,7 @@ bool Front::Relocalize() {
     last_reloc_frame_ = cur_.id;
     const int inliers = TrackLocalMap();
     last_inliers_ = inliers;
+    kf_peak_inliers_ = inliers;
     if (inliers < options_.reloc_min_inliers) continue;
     for (size_t i = 0; i < cur_.points.size(); ++i)
       if (cur_.outlier[i]) { cur_.points[i] = nullptr; cur_.outlier[i] = false; }

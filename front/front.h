@@ -116,6 +116,7 @@ class Front {
   int64_t last_kf_frame_ = 0, last_reloc_frame_ = -100;
   Timestamp lost_since_ = 0;
   int last_inliers_ = 0;
+  int kf_peak_inliers_ = 0;  // most inliers of a frame since the last keyframe
   bool kf_inserted_ = false;
   size_t reloc_cursor_ = 0;
   double frame_interval_s_ = 0;

@@ -21,6 +21,8 @@ bool FrontOptions::Check(std::string* why) const {
   if (local_ba_iterations < 0 || !(local_ba_max_time_s > 0)) return fail("local BA limits must be positive");
   if (local_ba_max_keyframes < 1) return fail("local_ba_max_keyframes must be >= 1");
   if (local_ba_max_fixed < 0) return fail("local_ba_max_fixed must be >= 0");
+  if (max_ba_skips < 0) return fail("max_ba_skips must be >= 0");
+  if (!(kf_weak_ratio >= 0 && kf_weak_ratio <= 1)) return fail("kf_weak_ratio must be in [0, 1]");
   if (!(kf_cull_redundancy > 0 && kf_cull_redundancy <= 1)) return fail("kf_cull_redundancy must be in (0, 1]");
   if (!(reloc_time_s >= 0)) return fail("reloc_time_s must be >= 0");
   if (reloc_min_inliers < 10) return fail("reloc_min_inliers must be >= 10");
@@ -53,6 +55,7 @@ void ReadOptions(ConfigSection& s, FrontOptions* o) {
   s.ReadInRange("max_local_keyframes", &o->max_local_keyframes, 1, 10000);
   s.ReadInRange("fps", &o->fps, 0.0, 1000.0);
   s.ReadInRange("kf_tracked_ratio", &o->kf_tracked_ratio, 0.01, 1.0);
+  s.ReadInRange("kf_weak_ratio", &o->kf_weak_ratio, 0.0, 1.0);
   s.Read("local_mapping_thread", &o->local_mapping_thread);
   s.ReadInRange("triangulation_neighbours", &o->triangulation_neighbours, 1, 100);
   s.ReadInRange("local_ba_iterations", &o->local_ba_iterations, 0, 1000);
@@ -60,6 +63,7 @@ void ReadOptions(ConfigSection& s, FrontOptions* o) {
   s.ReadInRange("local_ba_max_keyframes", &o->local_ba_max_keyframes, 1, 1000);
   s.ReadInRange("local_ba_max_fixed", &o->local_ba_max_fixed, 0, 1000);
   s.ReadInRange("kf_cull_redundancy", &o->kf_cull_redundancy, 0.01, 1.0);
+  s.ReadInRange("max_ba_skips", &o->max_ba_skips, 0, 1000);
   s.ReadInRange("reloc_time_s", &o->reloc_time_s, 0.0, 1e6);
   s.ReadInRange("reloc_min_inliers", &o->reloc_min_inliers, 10, 100000);
   s.Read("hierarchical", &o->hierarchical);

@@ -35,6 +35,7 @@ struct FrontOptions {
   // Keyframes.
   double fps = 0;                         // frame rate for the keyframe cadence; 0: from timestamps
   double kf_tracked_ratio = 0.9;
+  double kf_weak_ratio = 0.9;             // also a keyframe when inliers < this x their peak since the last keyframe
   // Local mapping.
   bool local_mapping_thread = true;       // false: run mapping inline (tests)
   int triangulation_neighbours = 15;
@@ -43,6 +44,7 @@ struct FrontOptions {
   double local_ba_max_time_s = 0.15;
   int local_ba_max_fixed = 20;
   double kf_cull_redundancy = 0.9;
+  int max_ba_skips = 2;                   // behind: at most this many keyframes in a row without local BA
   // Loss handling.
   double reloc_time_s = 0.5;              // give up relocalizing after this long
   int reloc_min_inliers = 40;

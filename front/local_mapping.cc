@@ -106,7 +106,22 @@ void LocalMapper::Process(KeyFrame* kf) {
   c_fuse = CpuMs();
   if (QueueSize() == 0) FuseNeighbours(kf);
   c_fuse = CpuMs() - c_fuse;
-  if (stop_ || QueueSize() > 0) { ++processed_; return; }
+  // Behind (keyframes queued): skip BA to catch up, but never for more than
+  // o_.max_ba_skips keyframes in a row. Without BA the young keyframes keep
+  // their tracking poses and the low-parallax points of a turn, and the
+  // scale drifts away (seen on `smooth` in realtime on a loaded machine).
+  if (stop_) return;
+  if (QueueSize() > 0 && ba_skipped_ < o_.max_ba_skips) {
+    ++ba_skipped_;
+    ++processed_;
+    spdlog::debug("mapping: kf {} t {} q {} +{} points, behind: BA skipped", kf->id, FormatSeconds(kf->timestamp),
+                  QueueSize(), map_->points.size() - before);
+    return;
+  }
+  // A forced BA (queue not empty) is not preempted by new keyframes, only
+  // bounded by local_ba_iterations / local_ba_max_time_s.
+  const bool forced = QueueSize() > 0;
+  ba_skipped_ = 0;
   // Local BA: collect under the lock, solve on the copy, write back.
   LocalBaProblem pb;
   {
@@ -115,7 +130,7 @@ void LocalMapper::Process(KeyFrame* kf) {
   }
   c_ba = CpuMs();
   if (!pb.obs.empty()) {
-    if (SolveLocalBa(&pb, cam_, o_.local_ba_iterations, o_.local_ba_max_time_s, &abort_ba_)) {
+    if (SolveLocalBa(&pb, cam_, o_.local_ba_iterations, o_.local_ba_max_time_s, forced ? &stop_ : &abort_ba_)) {
       std::lock_guard<std::mutex> l(map_->mutex);
       ApplyLocalBa(pb, cam_);
     }
@@ -126,8 +141,8 @@ void LocalMapper::Process(KeyFrame* kf) {
     CullKeyFrames(kf);
   }
   ++processed_;
-  spdlog::debug("mapping: kf {} t {} q {} +{} points, cpu {:.1f} ms (triangulate {:.1f}, fuse {:.1f}, BA {:.1f} with {} kfs {} fixed {} obs)",
-                kf->id, FormatSeconds(kf->timestamp), QueueSize(), map_->points.size() - before, CpuMs() - c0, c_tri, c_fuse, c_ba, pb.local.size(), pb.fixed.size(), pb.obs.size());
+  spdlog::debug("mapping: kf {} t {} q {} +{} points{}, cpu {:.1f} ms (triangulate {:.1f}, fuse {:.1f}, BA {:.1f} with {} kfs {} fixed {} obs)",
+                kf->id, FormatSeconds(kf->timestamp), QueueSize(), map_->points.size() - before, forced ? " (forced BA)" : "", CpuMs() - c0, c_tri, c_fuse, c_ba, pb.local.size(), pb.fixed.size(), pb.obs.size());
 }
 
 void LocalMapper::CullPoints(KeyFrame* kf) {

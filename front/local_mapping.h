@@ -47,6 +47,7 @@ class LocalMapper {
   std::thread thread_;
   std::atomic<bool> stop_{false}, abort_ba_{false}, idle_{true};
   std::atomic<int64_t> processed_{0};
+  int ba_skipped_ = 0;  // consecutive keyframes processed without local BA
 };
 
 }  // namespace rumi
