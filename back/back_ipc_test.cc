@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "back/canned_colmap_model.h"
 #include "common/timestamp.h"
 #include "ipc/channels.h"
 
@@ -23,49 +24,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 double Since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
-// Minimal COLMAP binary model (PINHOLE, images named by timestamp, one point
-// seen by every image), as back_submap_builder_test writes it.
-void WriteCannedModel(const fs::path& dir, const PinholeCameraOptions& c, const std::vector<Timestamp>& stamps) {
-  fs::create_directories(dir);
-  auto put = [](std::ofstream& o, auto v) { o.write(reinterpret_cast<const char*>(&v), sizeof(v)); };
-  {
-    std::ofstream o(dir / "cameras.bin", std::ios::binary);
-    put(o, uint64_t{1});
-    put(o, uint32_t{1});
-    put(o, int32_t{1});
-    put(o, uint64_t(c.width));
-    put(o, uint64_t(c.height));
-    for (double v : {c.fx, c.fy, c.cx + 0.5, c.cy + 0.5}) put(o, v);
-  }
-  {
-    std::ofstream o(dir / "images.bin", std::ios::binary);
-    put(o, uint64_t(stamps.size()));
-    for (size_t i = 0; i < stamps.size(); ++i) {
-      put(o, uint32_t(i + 1));
-      for (double v : {1.0, 0.0, 0.0, 0.0, -0.1 * double(i), 0.0, 0.0}) put(o, v);
-      put(o, uint32_t{1});
-      const std::string name = TimestampFileStem(stamps[i]) + ".png";
-      o.write(name.c_str(), static_cast<std::streamsize>(name.size() + 1));
-      put(o, uint64_t{1});
-      for (double v : {30.5, 20.5}) put(o, v);
-      put(o, uint64_t{7});
-    }
-  }
-  {
-    std::ofstream o(dir / "points3D.bin", std::ios::binary);
-    put(o, uint64_t{1});
-    put(o, uint64_t{7});
-    for (double v : {0.0, 0.0, 5.0}) put(o, v);
-    for (uint8_t v : {1, 2, 3}) put(o, v);
-    put(o, 0.5);
-    put(o, uint64_t(stamps.size()));
-    for (size_t i = 0; i < stamps.size(); ++i) {
-      put(o, uint32_t(i + 1));
-      put(o, uint32_t{0});
-    }
-  }
-}
 
 bool ProcessGone(pid_t pid) {
   if (::kill(pid, 0) != 0) return true;
@@ -198,8 +156,8 @@ TEST_F(BackIpcTest, WindowsInBackSubmapsOutThenCleanExit) {
   const ImageWindow a = MakeWindow(7, 1341847980722988001LL);
   const ImageWindow b = MakeWindow(8, 1341847990000000003LL);
   const ImageWindow c = MakeWindow(9, 1341848000000000005LL);  // no model: fails as no_model
-  WriteCannedModel(dir_ / "canned" / TimestampFileStem(a.frames[0].timestamp) / "0", a.camera, Stamps(a));
-  WriteCannedModel(dir_ / "canned" / TimestampFileStem(b.frames[0].timestamp) / "0", b.camera, Stamps(b));
+  WriteCannedModel(dir_ / "canned" / TimestampFileStem(a.frames[0].timestamp) / "0", a.camera, Stamps(a), 30.5, 20.5);
+  WriteCannedModel(dir_ / "canned" / TimestampFileStem(b.frames[0].timestamp) / "0", b.camera, Stamps(b), 30.5, 20.5);
   const std::string config = Config();
 
   auto tx = std::make_unique<WindowSender>(ipc_);

@@ -1,5 +1,6 @@
 // BackSubmapBuilder against fake `colmap` executables (shell scripts written
 // here): failures, hangs, empty output and canned models, without COLMAP.
+#include "back/canned_colmap_model.h"
 #include "back/back_submap_builder.h"
 
 #include <gtest/gtest.h>
@@ -16,50 +17,6 @@ namespace fs = std::filesystem;
 
 namespace rumi {
 namespace {
-
-// Writes a minimal binary model (PINHOLE camera, images named by timestamp,
-// one point seen by all images) into dir.
-void WriteCannedModel(const fs::path& dir, const PinholeCameraOptions& c,
-                      const std::vector<Timestamp>& stamps) {
-  fs::create_directories(dir);
-  auto put = [](std::ofstream& o, auto v) { o.write(reinterpret_cast<const char*>(&v), sizeof(v)); };
-  {
-    std::ofstream o(dir / "cameras.bin", std::ios::binary);
-    put(o, uint64_t{1});
-    put(o, uint32_t{1});
-    put(o, int32_t{1});
-    put(o, uint64_t(c.width));
-    put(o, uint64_t(c.height));
-    for (double v : {c.fx, c.fy, c.cx + 0.5, c.cy + 0.5}) put(o, v);
-  }
-  {
-    std::ofstream o(dir / "images.bin", std::ios::binary);
-    put(o, uint64_t(stamps.size()));
-    for (size_t i = 0; i < stamps.size(); ++i) {
-      put(o, uint32_t(i + 1));
-      for (double v : {1.0, 0.0, 0.0, 0.0, -0.1 * double(i), 0.0, 0.0}) put(o, v);
-      put(o, uint32_t{1});
-      const std::string name = TimestampFileStem(stamps[i]) + ".png";
-      o.write(name.c_str(), static_cast<std::streamsize>(name.size() + 1));
-      put(o, uint64_t{1});
-      for (double v : {100.5, 50.5}) put(o, v);
-      put(o, uint64_t{7});
-    }
-  }
-  {
-    std::ofstream o(dir / "points3D.bin", std::ios::binary);
-    put(o, uint64_t{1});
-    put(o, uint64_t{7});
-    for (double v : {0.0, 0.0, 5.0}) put(o, v);
-    for (uint8_t v : {1, 2, 3}) put(o, v);
-    put(o, 0.5);
-    put(o, uint64_t(stamps.size()));
-    for (size_t i = 0; i < stamps.size(); ++i) {
-      put(o, uint32_t(i + 1));
-      put(o, uint32_t{0});
-    }
-  }
-}
 
 class BackSubmapBuilderTest : public ::testing::Test {
  protected:
