@@ -53,7 +53,16 @@ TEST(ProcessRunnerTest, MissingExecutableIsLaunchFailure) {
   EXPECT_NE(res.message.find("/nonexistent/rumi-colmap-xyz"), std::string::npos) << res.message;
 }
 
-bool Alive(pid_t pid) { return ::kill(pid, 0) == 0; }
+// Running, as opposed to gone or a zombie: a killed grandchild is reparented
+// to PID 1, which may take its time to reap it.
+bool Alive(pid_t pid) {
+  if (::kill(pid, 0) != 0) return false;
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string comm_and_rest;
+  if (!std::getline(stat, comm_and_rest)) return false;
+  const size_t close = comm_and_rest.rfind(')');  // state follows "pid (comm) "
+  return close == std::string::npos || close + 2 >= comm_and_rest.size() || comm_and_rest[close + 2] != 'Z';
+}
 
 TEST(ProcessRunnerTest, TimeoutKillsTheWholeProcessGroup) {
   // The child starts a grandchild that would outlive a plain kill of the child.
@@ -61,7 +70,7 @@ TEST(ProcessRunnerTest, TimeoutKillsTheWholeProcessGroup) {
   std::filesystem::remove(pid_file);
   RunRequest r;
   r.argv = {"sh", "-c", "sleep 30 & echo $! > " + pid_file + "; wait"};
-  r.timeout_s = 0.3;
+  r.timeout_s = 1.0;  // long enough for a loaded machine to start the grandchild
   const auto t0 = std::chrono::steady_clock::now();
   const RunResult res = RunProcess(r);
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
