@@ -235,6 +235,8 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
     req.argv.push_back(options_.colmap_path);
     req.argv.insert(req.argv.end(), step.args.begin(), step.args.end());
     req.log_path = log.string();
+    // glog would also leave a log file per COLMAP run in /tmp, forever.
+    req.env = {"GLOG_logtostderr=1"};
     req.timeout_s = options_.step_timeout_s;
     req.low_priority = options_.low_priority;
     req.cancel = cancel;

@@ -23,6 +23,7 @@ struct RunResult {
 struct RunRequest {
   std::vector<std::string> argv;  // argv[0] is looked up in PATH when it has no '/'
   std::string log_path;           // stdout+stderr appended here ("" = /dev/null)
+  std::vector<std::string> env;   // "NAME=value" set in the child on top of ours
   double timeout_s = 600.0;
   bool low_priority = true;       // SCHED_IDLE (fallback nice 19) in the child
   const std::atomic<bool>* cancel = nullptr;  // polled; set -> group killed, kCancelled

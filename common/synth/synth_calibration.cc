@@ -46,7 +46,8 @@ std::string SynthCalibrationReport::Summary() const {
 namespace {
 
 void RunOrThrow(const std::string& cmd, const fs::path& log) {
-  const std::string full = cmd + " >> '" + log.string() + "' 2>&1";
+  // GLOG_logtostderr: no glog file per COLMAP run left behind in /tmp.
+  const std::string full = "GLOG_logtostderr=1 " + cmd + " >> '" + log.string() + "' 2>&1";
   spdlog::info("calibrate: {}", cmd);
   const int rc = std::system(full.c_str());
   if (rc != 0) throw std::runtime_error("command failed (" + std::to_string(rc) + "), see " + log.string() + ": " + cmd);
@@ -141,7 +142,7 @@ SynthCalibrationReport CalibrateSynth(const SynthOptions& options, const SynthCa
                              " --Mapper.ba_refine_focal_length 0 --Mapper.ba_refine_principal_point 0"
                              " --Mapper.ba_refine_extra_params 0";
   spdlog::info("calibrate: {}", mapper);
-  if (std::system((mapper + " >> '" + log.string() + "' 2>&1").c_str()) != 0)
+  if (std::system(("GLOG_logtostderr=1 " + mapper + " >> '" + log.string() + "' 2>&1").c_str()) != 0)
     spdlog::warn("calibrate: COLMAP mapper built no model (see {})", log.string());
   r.registered = 0;
   for (const auto& entry : fs::directory_iterator(work / "sparse")) {
