@@ -330,6 +330,15 @@ void Front::Initialize() {
   kf_inserted_ = true;
   last_inliers_ = tracked;
   kf_peak_inliers_ = tracked;
+  // The reference frame now has a pose in the submap (it is keyframe 0):
+  // its record in the submap says so (the per-frame log keeps what was known
+  // live, initialising).
+  for (FrameRel& fr : submap_frames_)
+    if (fr.rec.timestamp == kf0->timestamp) {
+      fr.rec.state = TrackingState::kTracking;
+      fr.ref = kf0;
+      fr.T_c_ref = Se3();
+    }
   spdlog::info("front: submap {} initialised ({}), {} points, parallax {:.1f} deg, RH {:.2f}, gap {} frames",
                submap_id_, r.model, tracked, r.parallax_deg, r.score_ratio, static_cast<int>(gap));
   if (pending_link_) {
@@ -532,6 +541,11 @@ void Front::CreateKeyFrame() {
   kf_peak_inliers_ = last_inliers_;
   kf_inserted_ = true;
   mapper_->Push(kf);
+}
+
+int64_t Front::current_submap_keyframes() const {
+  std::lock_guard<std::mutex> lock(map_->mutex);
+  return map_->NumGoodKeyFrames();
 }
 
 bool Front::Relocalize() {

@@ -71,6 +71,7 @@ class Front {
   const std::vector<FrameRecord>& records() const { return records_; }
   const std::vector<FrameTiming>& timings() const { return timings_; }
   int64_t current_submap_id() const { return submap_id_; }
+  int64_t current_submap_keyframes() const;  // good keyframes of the current submap
   TrackingState state() const { return state_; }
   MappingGrain grain() const { return hier_.state(); }
   bool halt() const { return options_.hierarchical && hier_.halt(); }

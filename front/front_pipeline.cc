@@ -182,7 +182,8 @@ int RunFrontPipeline(const FrontPipelineArgs& a) {
       if (!got || stopped() || (a.max_frames > 0 && n >= static_cast<size_t>(a.max_frames))) break;
       const FrameRecord rec = front.Track(frame.timestamp, frame.image);
       const FrameTiming& tm = front.timings().back();
-      pub.OnFrame(rec, frame.image, tm.total_ms, tm.cpu_ms, front.FinishedSubmaps(), snapshot);
+      pub.OnFrame(rec, frame.image, tm.total_ms, tm.cpu_ms, front.current_submap_keyframes(), front.FinishedSubmaps(),
+                  snapshot);
       ++n;
     }
     const bool by_signal = stopped();

@@ -167,7 +167,8 @@ void FrontPublisher::TakeFinished(const std::vector<Submap>& finished) {
 }
 
 void FrontPublisher::OnFrame(const FrameRecord& rec, const cv::Mat& image, double ms, double cpu_ms,
-                             const std::vector<Submap>& finished, const std::function<Submap()>& snapshot) {
+                             int64_t submap_keyframes, const std::vector<Submap>& finished,
+                             const std::function<Submap()>& snapshot) {
   const int64_t t0 = SteadyNs();
   if (rec.state != TrackingState::kCoarse) {
     if (rec.submap_id != count_submap_) {
@@ -182,6 +183,7 @@ void FrontPublisher::OnFrame(const FrameRecord& rec, const cv::Mat& image, doubl
   sf.state = rec.state;
   sf.submap_id = rec.submap_id;
   sf.submap_frames = rec.state == TrackingState::kCoarse ? 0 : count_frames_;
+  sf.submap_keyframes = rec.state == TrackingState::kCoarse ? 0 : submap_keyframes;
   ImageWindow w;
   if (sampler_.AddFrame(sf, &w)) EnqueueWindow(std::move(w));
   TakeFinished(finished);

@@ -84,9 +84,11 @@ class FrontPublisher {
   // Tracking thread, after each Front::Track. `finished` is the front's
   // finished submaps so far (new entries are copied once); `snapshot`
   // returns the front's current submap and is called at most once per
-  // resend interval. ms / cpu_ms: the front's time for the frame.
+  // resend interval. ms / cpu_ms: the front's time for the frame;
+  // submap_keyframes: keyframes in the record's submap (the sampler's S3).
   void OnFrame(const FrameRecord& record, const cv::Mat& image, double ms, double cpu_ms,
-               const std::vector<Submap>& finished, const std::function<Submap()>& snapshot);
+               int64_t submap_keyframes, const std::vector<Submap>& finished,
+               const std::function<Submap()>& snapshot);
   // A frame the replay skipped: logged as lost, submap -1, skipped = 1.
   void OnSkipped(Timestamp t);
 

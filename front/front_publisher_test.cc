@@ -178,6 +178,7 @@ TEST(FrontPublisher, ShipsWindowsSubmapsAndWritesFiles) {
   SamplerOptions so;
   so.inter = 5;
   so.th_s3 = 8;
+  so.th_s3_unit = S3Unit::kFrames;  // the fake front has no keyframes
   so.len = 4;
   FrontPublisherOptions po;
   po.out_dir = out.string();
@@ -195,7 +196,7 @@ TEST(FrontPublisher, ShipsWindowsSubmapsAndWritesFiles) {
   for (int i = 0; i < static_cast<int>(ff.records.size()); ++i) {
     if (i == 51) pub.OnSkipped(T(50) + 50 * kMs);  // a frame the replay dropped between 50 and 51
     ff.Step(i);
-    pub.OnFrame(ff.records[i], Image(i), 10.0 + i, 5.0, ff.finished, snap);
+    pub.OnFrame(ff.records[i], Image(i), 10.0 + i, 5.0, 0, ff.finished, snap);
     auto it = resend_at.find(i);
     if (it != resend_at.end()) {
       // Wait for that resend to reach the consumer before the next one is due
@@ -310,6 +311,7 @@ TEST(FrontPublisher, AbsentConsumersNeverBlock) {
   SamplerOptions so;
   so.inter = 5;
   so.th_s3 = 8;
+  so.th_s3_unit = S3Unit::kFrames;
   FrontPublisherOptions po;  // no files
   po.resend_interval_s = 1.0;
   po.wait_for_consumers_s = 0.3;
@@ -318,7 +320,7 @@ TEST(FrontPublisher, AbsentConsumersNeverBlock) {
   const std::function<Submap()> snap = [&] { return ff.Snapshot(); };
   for (int i = 0; i < static_cast<int>(ff.records.size()); ++i) {
     ff.Step(i);
-    pub.OnFrame(ff.records[i], Image(i), 1.0, 1.0, ff.finished, snap);
+    pub.OnFrame(ff.records[i], Image(i), 1.0, 1.0, 0, ff.finished, snap);
   }
   ff.Finish();
   EXPECT_TRUE(pub.Finish(ff.finished));
@@ -355,7 +357,7 @@ TEST(FrontPublisher, ConsumerThatLeftIsNotAwaited) {
   }  // both leave
   for (int i = 0; i < 20; ++i) {
     ff.Step(i);
-    pub.OnFrame(ff.records[i], Image(i), 1.0, 1.0, ff.finished, nullptr);
+    pub.OnFrame(ff.records[i], Image(i), 1.0, 1.0, 0, ff.finished, nullptr);
   }
   ff.Finish();
   const auto t0 = std::chrono::steady_clock::now();

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
+#include <algorithm>
 #include <set>
 
 #include "front/front_test_util.h"
@@ -96,6 +97,17 @@ TEST(Front, TracksKittiStretch) {
   // Scale normalisation: first keyframe's median depth is 1 -> the submap is
   // not metric; the first keyframe is the submap origin.
   EXPECT_LT(s.keyframes.front().T_cw.translation().norm(), 1e-9);
+  // The initialisation reference frame was initialising live, but in the
+  // submap it is keyframe 0 and has its pose (the origin).
+  const Timestamp t_ref = s.keyframes.front().timestamp;
+  const auto ref = std::find_if(s.frames.begin(), s.frames.end(), [&](const FrameRecord& r) { return r.timestamp == t_ref; });
+  ASSERT_NE(ref, s.frames.end());
+  EXPECT_EQ(ref->state, TrackingState::kTracking);
+  EXPECT_LT(ref->T_wc.translation().norm(), 1e-9);
+  const auto live_ref = std::find_if(front.records().begin(), front.records().end(),
+                                     [&](const FrameRecord& r) { return r.timestamp == t_ref; });
+  ASSERT_NE(live_ref, front.records().end());
+  EXPECT_EQ(live_ref->state, TrackingState::kInitializing);
   // Realtime records too (not refined later).
   const AteSummary ate_rt = Ate(front.records(), seq->frames);
   EXPECT_LT(ate_rt.Percent(), 2.0);

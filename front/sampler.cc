@@ -20,6 +20,12 @@ void ReadOptions(ConfigSection& s, SamplerOptions* o) {
   s.ReadInRange("inter", &o->inter, 1, 10000);
   s.ReadInRange("len", &o->len, 0, 10000);
   s.ReadInRange("th_s3", &o->th_s3, 0, 100000);
+  std::string unit;
+  if (s.Read("th_s3_unit", &unit)) {
+    if (unit == "keyframes") o->th_s3_unit = S3Unit::kKeyframes;
+    else if (unit == "frames") o->th_s3_unit = S3Unit::kFrames;
+    else s.Fail("th_s3_unit", "must be 'keyframes' or 'frames', not '" + unit + "'");
+  }
   s.ReadInRange("max_s2", &o->max_s2, 2, 100000);
   s.Read("clone_images", &o->clone_images);
   std::string why;
@@ -148,6 +154,7 @@ bool Sampler::AddFrame(const SamplerFrame& f, ImageWindow* window) {
         sparse_k_ = 0;
         resume_submap_ = f.submap_id;
         tracked_since_resume_ = 0;
+        keyframes_at_resume_ = f.submap_keyframes;
         spdlog::debug("sampler: t={} tracking resumed in submap {} ({} frames), S3", f.timestamp, f.submap_id,
                       f.submap_frames);
         break;
@@ -159,15 +166,19 @@ bool Sampler::AddFrame(const SamplerFrame& f, ImageWindow* window) {
       if (f.submap_id != resume_submap_) {  // front switched submap again while tracking
         resume_submap_ = f.submap_id;
         tracked_since_resume_ = 1;
+        keyframes_at_resume_ = f.submap_keyframes;
       }
+      const bool same = f.submap_id == submap_before_loss_;
       const int64_t count =
-          f.submap_id == submap_before_loss_ ? tracked_since_resume_ : f.submap_frames;
+          o_.th_s3_unit == S3Unit::kFrames ? (same ? tracked_since_resume_ : f.submap_frames)
+                                           : (same ? f.submap_keyframes - keyframes_at_resume_ : f.submap_keyframes);
       if (count > o_.th_s3) {
         Emit(window);
         emitted = true;
         phase_ = Phase::kS1;
-        spdlog::debug("sampler: t={} submap {} holds {} > th_s3 {} frames: window {} done, back activated",
-                      f.timestamp, f.submap_id, count, o_.th_s3, window->id);
+        spdlog::debug("sampler: t={} submap {} holds {} > th_s3 {} {}: window {} done, back activated",
+                      f.timestamp, f.submap_id, count, o_.th_s3,
+                      o_.th_s3_unit == S3Unit::kFrames ? "frames" : "keyframes", window->id);
       }
     }
     const bool sample = sparse_k_ % o_.inter == 0;
