@@ -67,6 +67,7 @@ bool SynthOptions::Check(std::string* why) const {
   if (!(blur_shake_rate_deg >= 0 && blur_shake_rate_deg <= 2000)) return fail("blur_shake_rate_deg must be in [0, 2000]");
   if (!(blur_exposure_frac > 0 && blur_exposure_frac <= 1)) return fail("blur_exposure_frac must be in (0, 1]");
   if (!(blur_gain >= 0 && blur_gain <= 1)) return fail("blur_gain must be in [0, 1]");
+  if (!(std::abs(drop_turn_deg) <= 180)) return fail("drop_turn_deg must be in [-180, 180]");
   if (!(dark_gain >= 0 && dark_gain <= 1)) return fail("dark_gain must be in [0, 1]");
   if (!(weak_distance >= 0.5 && weak_distance <= 2.0)) return fail("weak_distance must be in [0.5, 2]");
   if (!(weak_amplitude >= 0 && weak_amplitude <= 0.3)) return fail("weak_amplitude must be in [0, 0.3]");
@@ -99,6 +100,7 @@ void ReadOptions(ConfigSection& s, SynthOptions* o) {
   s.ReadInRange("blur_shake_rate_deg", &o->blur_shake_rate_deg, 0.0, 2000.0);
   s.ReadInRange("blur_exposure_frac", &o->blur_exposure_frac, 0.01, 1.0);
   s.ReadInRange("blur_gain", &o->blur_gain, 0.0, 1.0);
+  s.ReadInRange("drop_turn_deg", &o->drop_turn_deg, -180.0, 180.0);
   s.ReadInRange("dark_gain", &o->dark_gain, 0.0, 1.0);
   s.ReadInRange("weak_distance", &o->weak_distance, 0.5, 2.0);
   s.ReadInRange("weak_amplitude", &o->weak_amplitude, 0.0, 0.3);

@@ -45,6 +45,7 @@ struct SynthOptions {
   double blur_gain = 0.5;             // blur: exposure gain in the stretch (dim light, long shutter)
   double blur_exposure_frac = 0.9;    // blur: shutter time / frame interval
   double dark_gain = 0.1;             // dark: exposure gain at the bottom
+  double drop_turn_deg = -45.0;       // drop: turn (deg, + left) while frames are missing, then back
   double weak_distance = 1.0;         // weak: distance to the plain wall
   double weak_amplitude = 0.06;       // weak / corridor turn: albedo amplitude left
 

@@ -213,6 +213,26 @@ Se3 SyntheticSequence::CorridorPose(double t) const {
   return Se3(LookRotation(yaw, pitch, roll), p);
 }
 
+namespace {
+
+// Extra yaw (rad) of a detour: the rate ramps linearly 0 -> rate over
+// [a0, a0 + ramp], holds, ramps down over [a1 - ramp, a1], then the angle
+// gained swings back to 0 at about back_rate (smooth start and stop).
+double YawDetour(double t, double a0, double a1, double ramp, double rate, double back_rate) {
+  if (t <= a0) return 0;
+  auto ramp_angle = [&](double x) {  // integral of a linear rate ramp 0..rate over [0, ramp]
+    x = std::clamp(x, 0.0, ramp);
+    return 0.5 * rate * x * x / ramp;
+  };
+  const double total = rate * (a1 - a0 - ramp);
+  double extra = ramp_angle(t - a0) + rate * std::clamp(t - (a0 + ramp), 0.0, a1 - a0 - 2 * ramp);
+  if (t > a1 - ramp) extra += rate * std::min(t - (a1 - ramp), ramp) - ramp_angle(t - (a1 - ramp));
+  if (t > a1) extra -= total * SmoothStep01((t - a1) / (std::abs(total) / back_rate));
+  return extra;
+}
+
+}  // namespace
+
 Se3 SyntheticSequence::PoseAt(double t) const {
   if (o_.scenario == SynthScenario::kCorridor) return CorridorPose(t);
   Se3 pose = BasePose(Phase(t));
@@ -229,25 +249,11 @@ Se3 SyntheticSequence::PoseAt(double t) const {
       pose = Se3(pose.rotation().slerp(w, tq), (1 - w) * pose.translation() + w * tp);
     }
   } else if (o_.scenario == SynthScenario::kBlur) {
-    // Trapezoidal yaw rate: ramp up just before the stretch, hold the peak rate
-    // through it, ramp down, then swing back slowly (about 35 deg/s).
-    const double rate = o_.blur_peak_rate_deg * kDeg;
+    // Peak yaw rate held through the stretch (ramps just outside it), then a
+    // slow swing back (about 35 deg/s).
     const double ramp = 0.12;
-    const double a0 = t_hard0_ - 0.5 / o_.fps, a1 = t_hard1_ + 0.5 / o_.fps;
-    const double total = rate * (a1 - a0 + ramp);
-    const double back = total / (35.0 * kDeg);
-    auto ramp_angle = [&](double x) {  // integral of a linear rate ramp 0..rate over [0, ramp]
-      x = std::clamp(x, 0.0, ramp);
-      return 0.5 * rate * x * x / ramp;
-    };
-    double extra = 0;
-    if (t > a0 - ramp) {
-      extra = ramp_angle(t - (a0 - ramp));
-      if (t > a0) extra += rate * (std::min(t, a1) - a0);
-      if (t > a1) extra += rate * std::min(t - a1, ramp) - ramp_angle(t - a1);
-      const double tb = a1 + ramp;
-      if (t > tb) extra -= total * SmoothStep01((t - tb) / back);
-    }
+    const double a0 = t_hard0_ - 0.5 / o_.fps - ramp, a1 = t_hard1_ + 0.5 / o_.fps + ramp;
+    const double extra = YawDetour(t, a0, a1, ramp, o_.blur_peak_rate_deg * kDeg, 35.0 * kDeg);
     // Hand shake on top: the view direction circles at 8 Hz, so within one
     // exposure the blur path curves and edges of every orientation smear.
     const double w = HardWeight(t, ramp);
@@ -258,6 +264,27 @@ Se3 SyntheticSequence::PoseAt(double t) const {
          Eigen::AngleAxisd(amp * std::sin(omega * t), Eigen::Vector3d::UnitY()))
             .toRotationMatrix();
     pose = Se3(Eigen::AngleAxisd(extra, Eigen::Vector3d::UnitZ()) * pose.R() * shake, pose.translation());
+  } else if (o_.scenario == SynthScenario::kDrop && o_.drop_turn_deg != 0) {
+    // While the link is down the camera turns away from where it looked at
+    // the last frame received (so the first frames after the gap share
+    // little with it), turns back to that view at about 30 deg/s, and then
+    // rejoins its path. The view overlaps the pre-gap frames again only
+    // after the realtime front has given up relocalising; an offline matcher
+    // given the frames after the gap can still tie them to those before.
+    const double t_last = t_hard0_ - 1.0 / o_.fps;  // last frame before the gap
+    const double a0 = t_hard0_ - 0.5 / o_.fps, a1 = t_hard1_ + 0.5 / o_.fps;
+    if (t > a0) {
+      const double turn = o_.drop_turn_deg * kDeg;
+      const double t_ret = std::abs(turn) / (30.0 * kDeg);  // turning back
+      const double detour = t < a1 ? turn * SmoothStep01((t - a0) / (a1 - a0))
+                                   : turn * (1.0 - SmoothStep01((t - a1) / t_ret));
+      const Eigen::Quaterniond held =
+          Eigen::Quaterniond(Eigen::AngleAxisd(detour, Eigen::Vector3d::UnitZ())) * BasePose(Phase(t_last)).rotation();
+      // Rejoin the path's orientation slowly (the path itself keeps turning).
+      const double t_join = a1 + t_ret;
+      const double w = t < t_join ? 0.0 : SmoothStep01((t - t_join) / 2.0);
+      pose = Se3(held.slerp(w, pose.rotation()), pose.translation());
+    }
   }
   return pose;
 }

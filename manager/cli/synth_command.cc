@@ -113,6 +113,10 @@ void RegisterSynthCommand(CLI::App* app) {
   sub->add_option("--blur-shake", args->o.blur_shake_rate_deg, "blur: 8 Hz shake angular speed, deg/s")
       ->capture_default_str();
   sub->add_option("--blur-gain", args->o.blur_gain, "blur: exposure gain in the stretch")->capture_default_str();
+  sub->add_option("--blur-exposure", args->o.blur_exposure_frac, "blur: shutter time / frame interval in the stretch")
+      ->capture_default_str();
+  sub->add_option("--drop-turn", args->o.drop_turn_deg, "drop: yaw turned while frames are missing, deg")
+      ->capture_default_str();
   sub->add_option("--dark-gain", args->o.dark_gain, "dark: exposure gain at the bottom")->capture_default_str();
   sub->add_option("--weak-amplitude", args->o.weak_amplitude, "weak/corridor: texture amplitude left")
       ->capture_default_str();
