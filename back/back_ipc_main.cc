@@ -40,6 +40,7 @@ struct WindowRecord {
   std::string message;
   int frames = 0, registered = 0;
   std::vector<int64_t> submap_ids;
+  std::vector<std::vector<std::string>> submap_stamps;  // per sent submap: its keyframes' timestamps
   BackStepTimes times;
 };
 
@@ -67,6 +68,7 @@ nlohmann::ordered_json StatsJson(const Counters& c, uint64_t dropped, bool stopp
                    {"frames", w.frames},
                    {"registered", w.registered},
                    {"submaps", w.submap_ids},
+                   {"submap_timestamps", w.submap_stamps},
                    {"seconds",
                     {{"undistort_write", t.undistort_write_s},
                      {"feature_extraction", t.feature_extraction_s},
@@ -265,6 +267,9 @@ int RunBackIpc(const BackIpcRunOptions& o, const std::atomic<bool>* stop) {
       if (st == PushStatus::kOk) {
         ++c.submaps_sent;
         rec.submap_ids.push_back(s.id);
+        std::vector<std::string> stamps;
+        for (const Keyframe& kf : s.keyframes) stamps.push_back(FormatSeconds(kf.timestamp));
+        rec.submap_stamps.push_back(std::move(stamps));
         spdlog::info("back: sent back submap {} ({} keyframes, {} points)", s.id, s.keyframes.size(),
                      s.points.size());
       } else {

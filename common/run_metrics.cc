@@ -215,6 +215,10 @@ std::vector<FrontFrameLine> ParseFrontFrames(std::istream& in, const std::string
       }
       r.ms = ms;
     }
+    if (f.size() >= 6) {
+      if (f[5] != "0" && f[5] != "1") fail("skipped column must be 0 or 1, got '" + f[5] + "'");
+      r.skipped = f[5] == "1";
+    }
     if (!out.empty() && r.t <= out.back().t) fail("timestamps not strictly increasing");
     out.push_back(r);
   }

@@ -81,6 +81,7 @@ struct FrontFrameLine {
   TrackingState state = TrackingState::kInitializing;
   int64_t submap_id = -1;
   std::optional<double> ms;  // per-frame time, when the 4th column is given
+  bool skipped = false;      // 6th column 1: the replay dropped it (front too slow), never tracked
 };
 struct FrontSampleLine {
   Timestamp t = 0;

@@ -184,11 +184,14 @@ TEST(RunMetrics, ParsesFrontFramesAndSamples) {
   std::istringstream frames(
       "# t state submap ms\n"
       "1305031102.100000000 initializing -1 3.5\n"
-      "1305031102.200000000 tracking 0 12.25 9 9 9\n"
+      "1305031102.200000000 tracking 0 12.25 9 0 9\n"
       "\n"
-      "1305031102.300000000 2 0\n");
+      "1305031102.300000000 2 0\n"
+      "1305031102.400000000 lost -1 0 0 1\n");
   const auto f = ParseFrontFrames(frames, "front_frames.txt");
-  ASSERT_EQ(f.size(), 3u);
+  ASSERT_EQ(f.size(), 4u);
+  EXPECT_FALSE(f[1].skipped);
+  EXPECT_TRUE(f[3].skipped);
   EXPECT_EQ(f[0].t, kT0 + kDt);
   EXPECT_EQ(f[0].state, TrackingState::kInitializing);
   EXPECT_EQ(f[1].state, TrackingState::kTracking);
@@ -215,6 +218,8 @@ TEST(RunMetrics, BadRunFilesNameFileAndLine) {
     EXPECT_NE(std::string(e.what()).find("front_frames.txt:2"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("flying"), std::string::npos) << e.what();
   }
+  std::istringstream bad_skip("1.0 lost -1 0 0 yes\n");
+  EXPECT_THROW(ParseFrontFrames(bad_skip, "f"), std::runtime_error);
   std::istringstream unsorted("2.0 tracking 0\n1.0 tracking 0\n");
   EXPECT_THROW(ParseFrontFrames(unsorted, "f"), std::runtime_error);
   std::istringstream bad_set("1.0 4 0\n");

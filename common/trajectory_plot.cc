@@ -326,13 +326,17 @@ cv::Mat RenderTimeline(const TimelineInput& in, const TimelineOptions& o) {
   // State legend, top right.
   {
     int lx = right;
-    for (TrackingState s : {TrackingState::kCoarse, TrackingState::kInitializing,
-                            TrackingState::kLost, TrackingState::kTracking}) {
-      const std::string label = ToString(s);
+    const bool any_skipped =
+        std::any_of(in.frames.begin(), in.frames.end(), [](const TimelineFrame& f) { return f.skipped; });
+    auto entry = [&](const std::string& label, const cv::Scalar& colour) {
       lx -= 22 + TextWidth(label, 0.45) + 14;
-      cv::rectangle(img, {lx, 12, 16, 10}, TrackingStateBgr(s), -1);
+      cv::rectangle(img, {lx, 12, 16, 10}, colour, -1);
       Text(img, label, {lx + 22, 22}, 0.45);
-    }
+    };
+    if (any_skipped) entry("skipped by replay", kPlotNoSubmapBgr);
+    for (TrackingState s : {TrackingState::kCoarse, TrackingState::kInitializing,
+                            TrackingState::kLost, TrackingState::kTracking})
+      entry(ToString(s), TrackingStateBgr(s));
   }
 
   // Row geometry scales with the image height.
@@ -380,7 +384,7 @@ cv::Mat RenderTimeline(const TimelineInput& in, const TimelineOptions& o) {
     first_visible = false;
     const int xa = X(f.t), xb = std::max(X(next), xa + 1);
     cv::rectangle(img, {xa, state_row.y + 1}, {xb - 1, state_row.y + state_row.height - 1},
-                  TrackingStateBgr(f.state), -1, cv::LINE_8);
+                  f.skipped ? kPlotNoSubmapBgr : TrackingStateBgr(f.state), -1, cv::LINE_8);
     cv::rectangle(img, {xa, submap_row.y + 1}, {xb - 1, submap_row.y + submap_row.height - 1},
                   SubmapBgr(f.submap_id), -1, cv::LINE_8);
     if (label_submap) {

@@ -57,6 +57,7 @@ struct TimelineFrame {
   Timestamp t = 0;
   TrackingState state = TrackingState::kInitializing;
   int64_t submap_id = -1;
+  bool skipped = false;  // dropped by the replay before the front saw it (drawn grey)
 };
 struct TimelineSample {
   Timestamp t = 0;

@@ -210,6 +210,27 @@ TEST(TrajectoryPlot, TimelineShowsStatesWhereTheyHappen) {
   EXPECT_GT(FindColour(img, SubmapBgr(1), below_legend, img.rows).count, 100);
 }
 
+// Frames the replay dropped (front too slow) are not tracking failures: grey,
+// with a legend entry, and no red where they are.
+TEST(TrajectoryPlot, TimelineDrawsReplaySkippedFramesGrey) {
+  TimelineInput in = Fig6Like();
+  for (int i = 20; i < 25; ++i) {
+    in.frames[i].state = TrackingState::kLost;
+    in.frames[i].skipped = true;
+  }
+  const cv::Mat img = RenderTimeline(in);
+  const int below_legend = 32;
+  // In the state row (the top quarter under the legend; the submap row below
+  // is grey where no submap is, and anti-aliased text has grey pixels).
+  const ColourBox grey = FindColour(img.colRange(120, img.cols), kPlotNoSubmapBgr, below_legend, img.rows / 4);
+  const double px_per_s = (img.cols - 140) / 4.95;
+  ASSERT_GT(grey.count, 50);
+  EXPECT_NEAR(120 + grey.box.x, 120 + 20 * 0.05 * px_per_s, 2);
+  const ColourBox lost = FindColour(img, TrackingStateBgr(TrackingState::kLost), below_legend, img.rows);
+  EXPECT_NEAR(lost.box.x, 120 + 2.5 * px_per_s, 2);  // only the real loss is red
+  EXPECT_GT(FindColour(img, kPlotNoSubmapBgr, 0, below_legend).count, 0);  // legend entry
+}
+
 TEST(TrajectoryPlot, ZoomedTimelineStaysInsideThePlot) {
   TimelineInput in = Fig6Like();
   in.begin = kT0 + 45 * kDt;  // inside window 0 and submap 0

@@ -318,7 +318,7 @@ void LoadFrontFrames(const fs::path& run_dir, std::vector<TimelineFrame>* timeli
   const std::vector<FrontFrameLine> lines = ReadFrontFrames(p.string());
   bool all_ms = !lines.empty();
   for (const auto& l : lines) {
-    timeline->push_back({l.t, l.state, l.submap_id});
+    timeline->push_back({l.t, l.state, l.submap_id, l.skipped});
     all_ms &= l.ms.has_value();
   }
   if (all_ms) {
