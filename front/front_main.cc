@@ -1,7 +1,7 @@
 // rumi-front: runs the realtime front end on a dataset and writes the
 // trajectories (TUM), per-frame states and timings.
 //   rumi-front --dataset tum|euroc|icl|kitti|folder PATH [--config FILE] [--out DIR]
-//              [--bench] [--sync] [--no-pace] [--max-frames N] [--log LEVEL]
+//              [--bench] [--sync] [--no-pace] [--max-frames N] [--loop N] [--log LEVEL]
 #include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
 #include <spdlog/spdlog.h>
@@ -33,6 +33,15 @@ double Percentile(std::vector<double> v, double p) {
   return v[i];
 }
 
+// Resident set size of this process (VmRSS), MiB; -1 when unknown.
+double ResidentMiB() {
+  std::ifstream f("/proc/self/status");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;  // kB
+  return -1;
+}
+
 Trajectory TrackedPoses(const Submap& s) {
   Trajectory t;
   for (const FrameRecord& r : s.frames)
@@ -44,13 +53,17 @@ int Main(int argc, char** argv) {
   CLI::App app{"rumi-front: realtime monocular front end on a dataset"};
   std::string kind_name, path, config_path, out_dir, log_level = "info";
   bool bench = false;
-  int max_frames = 0;
+  int max_frames = 0, loop = 1;
   app.add_option("--dataset", kind_name, "dataset kind: tum|euroc|icl|kitti|folder")->required();
   app.add_option("path", path, "dataset folder")->required();
   app.add_option("--config", config_path, "rumi YAML config (section front:, camera:)");
   app.add_option("--out", out_dir, "output folder (trajectories, states, timings)");
   app.add_flag("--bench", bench, "print median / p95 ms per frame");
   app.add_option("--max-frames", max_frames, "stop after N frames (0: all)");
+  app.add_option("--loop", loop,
+                 "play the sequence N times, forward and backward in turn, with continuing timestamps "
+                 "(long-run memory check; prints memory per pass)")
+      ->check(CLI::Range(1, 100000));
   app.add_option("--log", log_level, "log level");
   bool sync = false, no_pace = false;
   app.add_flag("--no-pace", no_pace, "feed frames as fast as possible instead of at capture rate");
@@ -109,15 +122,47 @@ int Main(int argc, char** argv) {
   const bool pace = !sync && !no_pace;
   std::optional<std::chrono::steady_clock::time_point> play0;
   Timestamp t0 = 0;
-  while (source->Next(&frame)) {
-    if (max_frames > 0 && n >= max_frames) break;
+  auto feed = [&](Timestamp t, const cv::Mat& image) {
     if (pace) {
-      if (!play0) { play0 = std::chrono::steady_clock::now(); t0 = frame.timestamp; }
-      std::this_thread::sleep_until(*play0 + std::chrono::nanoseconds(frame.timestamp - t0));
+      if (!play0) { play0 = std::chrono::steady_clock::now(); t0 = t; }
+      std::this_thread::sleep_until(*play0 + std::chrono::nanoseconds(t - t0));
     }
-    front.Track(frame.timestamp, frame.image);
-    all_t.push_back(frame.timestamp);
+    front.Track(t, image);
+    all_t.push_back(t);
     ++n;
+  };
+  if (loop <= 1) {
+    while (source->Next(&frame)) {
+      if (max_frames > 0 && n >= max_frames) break;
+      feed(frame.timestamp, frame.image);
+    }
+  } else {
+    // Long run: the frames are held in memory and played back and forth, so
+    // the motion stays continuous at each turn; timestamps keep increasing.
+    std::vector<Frame> frames;
+    while (source->Next(&frame) && (max_frames <= 0 || static_cast<int>(frames.size()) < max_frames))
+      frames.push_back(frame);
+    if (frames.size() < 2) throw std::runtime_error("--loop needs at least 2 frames");
+    const Timestamp dt = (frames.back().timestamp - frames.front().timestamp) /
+                         static_cast<Timestamp>(frames.size() - 1);
+    Timestamp t = frames.front().timestamp;
+    for (int pass = 0; pass < loop; ++pass) {
+      const size_t first = front.timings().size();
+      size_t tracked = 0;
+      for (size_t k = 0; k < frames.size(); ++k) {
+        const Frame& f = frames[pass % 2 == 0 ? k : frames.size() - 1 - k];
+        feed(t, f.image);
+        tracked += front.state() == TrackingState::kTracking;
+        t += dt;
+      }
+      std::vector<double> ms;
+      for (size_t i = first; i < front.timings().size(); ++i) ms.push_back(front.timings()[i].total_ms);
+      std::cout << "pass " << pass + 1 << "/" << loop << ": " << n << " frames (" << NsToSeconds(t - frames.front().timestamp)
+                << " s of stream), tracked " << 100.0 * tracked / frames.size() << " %, median "
+                << Percentile(ms, 0.5) << " ms, p95 " << Percentile(ms, 0.95) << " ms, submap "
+                << front.current_submap_id() << " with " << front.current_submap_keyframes() << " keyframes, "
+                << front.FinishedSubmaps().size() << " finished, RSS " << ResidentMiB() << " MiB" << std::endl;
+    }
   }
   front.Finish();
   const auto& subs = front.FinishedSubmaps();
@@ -133,7 +178,7 @@ int Main(int argc, char** argv) {
   // Evaluation against ground truth, if any (largest submap, Sim3).
   Trajectory gt;
   for (const auto& [t, T] : source->ground_truth()) gt.push_back({t, T});
-  if (largest && !gt.empty() && all_t.size() >= 2) {
+  if (largest && !gt.empty() && all_t.size() >= 2 && loop <= 1) {
     const Trajectory est = TrackedPoses(*largest);
     try {
       AteOptions ao;
