@@ -31,6 +31,22 @@ TEST(ProcessRunnerTest, SuccessAndLog) {
   std::filesystem::remove(log);
 }
 
+TEST(ProcessRunnerTest, ExtraEnvironmentOverridesAndKeepsTheRest) {
+  const std::string log = TempPath("env.log");
+  std::filesystem::remove(log);
+  ::setenv("RUMI_RUNNER_TEST_KEEP", "kept", 1);
+  ::setenv("RUMI_RUNNER_TEST_OVER", "old", 1);
+  RunRequest r;
+  r.argv = {"sh", "-c", "echo $RUMI_RUNNER_TEST_KEEP $RUMI_RUNNER_TEST_OVER $GLOG_logtostderr"};
+  r.log_path = log;
+  r.env = {"RUMI_RUNNER_TEST_OVER=new", "GLOG_logtostderr=1"};
+  const RunResult res = RunProcess(r);
+  EXPECT_EQ(res.status, RunStatus::kOk) << res.message;
+  EXPECT_EQ(FileTail(log), "kept new 1\n");
+  EXPECT_STREQ(::getenv("RUMI_RUNNER_TEST_OVER"), "old");  // ours untouched
+  std::filesystem::remove(log);
+}
+
 TEST(ProcessRunnerTest, NonZeroExitIsFailureWithLogTail) {
   const std::string log = TempPath("fail.log");
   std::filesystem::remove(log);
