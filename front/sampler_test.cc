@@ -72,6 +72,7 @@ SamplerOptions PaperOptions() {
   SamplerOptions o;
   o.inter = 5;
   o.th_s3 = 8;
+  o.th_s3_unit = S3Unit::kFrames;  // the paper's fr1_room figures count frames
   o.len = 4;
   o.max_s2 = 100;
   return o;
@@ -233,11 +234,68 @@ TEST(Sampler, ClonesSampledImagesSoBufferReuseIsHarmless) {
   for (int i = 0; i < 3; ++i) EXPECT_EQ(w.frames[i].image.at<uint8_t>(0, 0), i + 1);
 }
 
+// th_s3 in keyframes: re-initialisation frames do not end S3 at once; it
+// lasts until the new submap holds more than th_s3 keyframes (or, after a
+// relocalisation into the same submap, until th_s3 keyframes were added).
+TEST(Sampler, S3CountsKeyframesOfTheNewSubmap) {
+  struct F { TrackingState st; int64_t submap, frames, kfs; };
+  auto script = [](bool same_submap) {
+    std::vector<F> v;
+    for (int i = 0; i < 20; ++i) v.push_back({TrackingState::kTracking, 0, i + 1, 1 + i / 4});
+    for (int i = 0; i < 10; ++i) v.push_back({TrackingState::kLost, 0, 21 + i, 5});
+    if (same_submap) {  // relocalised: submap 0 goes on from 5 keyframes
+      for (int i = 0; i < 40; ++i) v.push_back({TrackingState::kTracking, 0, 31 + i, 5 + i / 3});
+    } else {  // new submap 1: 10 initialising frames, then 2 keyframes + one per 3 frames
+      for (int i = 0; i < 10; ++i) v.push_back({TrackingState::kInitializing, 1, 1 + i, 0});
+      for (int i = 0; i < 40; ++i) v.push_back({TrackingState::kTracking, 1, 11 + i, 2 + i / 3});
+    }
+    return v;
+  };
+  auto run = [](const std::vector<F>& v, S3Unit unit, std::vector<int>* s3) {
+    SamplerOptions o = PaperOptions();
+    o.th_s3_unit = unit;
+    Sampler sampler(o, PinholeCameraOptions());
+    for (size_t i = 0; i < v.size(); ++i) {
+      SamplerFrame f;
+      f.timestamp = static_cast<Timestamp>(i) * 1000000;
+      f.image = cv::Mat(8, 8, CV_8UC1, cv::Scalar(0));
+      f.state = v[i].st;
+      f.submap_id = v[i].submap;
+      f.submap_frames = v[i].frames;
+      f.submap_keyframes = v[i].kfs;
+      ImageWindow w;
+      if (sampler.AddFrame(f, &w)) {
+        s3->clear();
+        for (const auto& wf : w.frames)
+          if (wf.set == SampleSet::kS3) s3->push_back(static_cast<int>(wf.timestamp / 1000000));
+        return static_cast<int>(i);
+      }
+    }
+    return -1;
+  };
+  std::vector<int> s3;
+  // New submap: counting frames, the 10 initialising frames already exceed 8
+  // at the resume (frame 40), so S3 is empty.
+  EXPECT_EQ(run(script(false), S3Unit::kFrames, &s3), 40);
+  EXPECT_TRUE(s3.empty());
+  // Counting keyframes: 2 + (i - 40) / 3 > 8 first at i = 61.
+  EXPECT_EQ(run(script(false), S3Unit::kKeyframes, &s3), 61);
+  EXPECT_EQ(s3, (std::vector<int>{40, 45, 50, 55, 60}));
+  // Same submap after relocalisation at frame 30: keyframes added since the
+  // resume, 5 + (i - 30) / 3 - 5 > 8 first at i = 57.
+  EXPECT_EQ(run(script(true), S3Unit::kKeyframes, &s3), 57);
+  EXPECT_EQ(s3, (std::vector<int>{30, 35, 40, 45, 50, 55}));
+  // ... and counting frames tracked since the resume: > 8 at i = 38.
+  EXPECT_EQ(run(script(true), S3Unit::kFrames, &s3), 38);
+  EXPECT_EQ(s3, (std::vector<int>{30, 35}));
+}
+
 TEST(SamplerOptions, CheckAndRead) {
   SamplerOptions o;
   EXPECT_TRUE(o.Check());
   EXPECT_EQ(o.inter, 5);
-  EXPECT_EQ(o.th_s3, 8);
+  EXPECT_EQ(o.th_s3, 20);
+  EXPECT_EQ(o.th_s3_unit, S3Unit::kKeyframes);
   o.inter = 0;
   std::string why;
   EXPECT_FALSE(o.Check(&why));
@@ -252,6 +310,11 @@ TEST(SamplerOptions, CheckAndRead) {
   EXPECT_EQ(r.th_s3, 12);
   EXPECT_EQ(r.max_s2, 50);
   EXPECT_FALSE(r.clone_images);
+  auto unit = LoadConfigString("th_s3_unit: frames\n");
+  ReadOptions(unit, &r);
+  EXPECT_EQ(r.th_s3_unit, S3Unit::kFrames);
+  auto bad_unit = LoadConfigString("th_s3_unit: seconds\n");
+  EXPECT_THROW(ReadOptions(bad_unit, &r), ConfigError);
 
   auto bad = LoadConfigString("inter: 0\n");
   EXPECT_THROW(ReadOptions(bad, &r), ConfigError);
