@@ -114,6 +114,10 @@ FrameRecord Front::Track(Timestamp t, const cv::Mat& image) {
   timing.timestamp = t;
   if (image.empty()) throw std::invalid_argument("Front::Track: empty image");
   auto f = Extract(image);
+  {
+    std::lock_guard<std::mutex> l(map_->mutex);
+    ++map_->frame_counter;  // PurgeCulled's clock
+  }
   timing.extract_ms = MsSince(t0);
   timing.keypoints = static_cast<int>(f->size());
   const auto t1 = std::chrono::steady_clock::now();
@@ -546,6 +550,16 @@ void Front::CreateKeyFrame() {
 int64_t Front::current_submap_keyframes() const {
   std::lock_guard<std::mutex> lock(map_->mutex);
   return map_->NumGoodKeyFrames();
+}
+
+Front::MapCounts Front::current_map_counts() const {
+  std::lock_guard<std::mutex> lock(map_->mutex);
+  MapCounts c;
+  c.keyframes = map_->keyframes.size();
+  for (const auto& [id, kf] : map_->keyframes) c.good_keyframes += kf->bad ? 0 : 1;
+  c.points = map_->points.size();
+  for (const auto& [id, p] : map_->points) c.good_points += p->bad ? 0 : 1;
+  return c;
 }
 
 bool Front::Relocalize() {

@@ -72,6 +72,9 @@ class Front {
   const std::vector<FrameTiming>& timings() const { return timings_; }
   int64_t current_submap_id() const { return submap_id_; }
   int64_t current_submap_keyframes() const;  // good keyframes of the current submap
+  // Current submap's containers, culled entries included (memory checks).
+  struct MapCounts { size_t keyframes = 0, good_keyframes = 0, points = 0, good_points = 0; };
+  MapCounts current_map_counts() const;
   TrackingState state() const { return state_; }
   MappingGrain grain() const { return hier_.state(); }
   bool halt() const { return options_.hierarchical && hier_.halt(); }

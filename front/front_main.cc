@@ -157,10 +157,12 @@ int Main(int argc, char** argv) {
       }
       std::vector<double> ms;
       for (size_t i = first; i < front.timings().size(); ++i) ms.push_back(front.timings()[i].total_ms);
+      const Front::MapCounts mc = front.current_map_counts();
       std::cout << "pass " << pass + 1 << "/" << loop << ": " << n << " frames (" << NsToSeconds(t - frames.front().timestamp)
                 << " s of stream), tracked " << 100.0 * tracked / frames.size() << " %, median "
                 << Percentile(ms, 0.5) << " ms, p95 " << Percentile(ms, 0.95) << " ms, submap "
-                << front.current_submap_id() << " with " << front.current_submap_keyframes() << " keyframes, "
+                << front.current_submap_id() << " with " << mc.good_keyframes << " keyframes (" << mc.keyframes
+                << " with culled ones) and " << mc.good_points << " points (" << mc.points << "), "
                 << front.FinishedSubmaps().size() << " finished, RSS " << ResidentMiB() << " MiB" << std::endl;
     }
   }

@@ -139,6 +139,11 @@ void LocalMapper::Process(KeyFrame* kf) {
   {
     std::lock_guard<std::mutex> l(map_->mutex);
     CullKeyFrames(kf);
+    // Fusion, BA and keyframe culling may have culled young points: drop
+    // them from recent_ before they are freed.
+    recent_.erase(std::remove_if(recent_.begin(), recent_.end(), [](const Landmark* p) { return p->bad; }),
+                  recent_.end());
+    map_->PurgeCulled();
   }
   ++processed_;
   spdlog::debug("mapping: kf {} t {} q {} +{} points{}, cpu {:.1f} ms (triangulate {:.1f}, fuse {:.1f}, BA {:.1f} with {} kfs {} fixed {} obs)",

@@ -126,6 +126,29 @@ Se3 KeyFrame::PoseFollowingParents() const {
   return rel * k->T_cw;
 }
 
+size_t Map::PurgeCulled() {
+  size_t freed = 0;
+  auto old = [&](int64_t* seen_at) {
+    if (*seen_at < 0) *seen_at = frame_counter;
+    return *seen_at <= frame_counter - 2;
+  };
+  for (auto it = points.begin(); it != points.end();) {
+    if (it->second->bad && old(&it->second->bad_seen_at)) {
+      it = points.erase(it);
+      ++freed;
+    } else {
+      ++it;
+    }
+  }
+  for (auto& [id, kf] : keyframes) {
+    if (!kf->bad || !kf->f || !old(&kf->bad_seen_at)) continue;
+    kf->f.reset();
+    std::vector<Landmark*>().swap(kf->points);
+    ++freed;
+  }
+  return freed;
+}
+
 void Map::SetBad(KeyFrame* kf) {
   if (kf->bad || kf->fixed) return;
   for (KeyFrame* c : kf->ordered_covis)

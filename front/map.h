@@ -70,6 +70,7 @@ struct Landmark {
   int visible = 1, found = 1;         // for culling: found / visible ratio
   int64_t first_kf_id = 0;
   bool bad = false;
+  int64_t bad_seen_at = -1;  // Map::frame_counter when PurgeCulled first saw it bad
   // Tracking scratch (avoid duplicates within one frame).
   int64_t last_frame_seen = -1, track_ref_frame = -1;
 
@@ -87,6 +88,7 @@ struct KeyFrame {
   std::map<KeyFrame*, int> covis;     // covisibility weights (shared points)
   std::vector<KeyFrame*> ordered_covis;
   bool bad = false;
+  int64_t bad_seen_at = -1;           // Map::frame_counter when PurgeCulled first saw it bad
   bool fixed = false;                 // first keyframe: gauge
   // Set when culled: the keyframe it was expressed against, so frames that
   // referenced it still follow later corrections (T_cw = T_parent_rel * parent->T_cw).
@@ -107,6 +109,16 @@ class Map {
   std::mutex mutex;
   std::map<int64_t, std::unique_ptr<KeyFrame>> keyframes;  // by id (= creation order)
   std::map<int64_t, std::unique_ptr<Landmark>> points;
+  int64_t frame_counter = 0;  // frames the tracking thread started (it increments it)
+
+  // Frees what culling left behind (call with `mutex` held, from the mapping
+  // thread after its own lists dropped bad points): culled points are
+  // deleted, culled keyframes lose their features and point slots (the
+  // object stays: frames refer to it and follow its parent chain). Only
+  // entries first seen bad at least 2 tracking frames ago are freed: the
+  // tracking thread holds pointers of the previous frame only, and drops bad
+  // ones when it starts a frame. Returns the number of entries freed.
+  size_t PurgeCulled();
 
   KeyFrame* AddKeyFrame(std::unique_ptr<KeyFrame> kf);
   Landmark* NewPoint(const Eigen::Vector3d& pos, KeyFrame* ref);
