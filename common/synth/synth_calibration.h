@@ -32,6 +32,10 @@ struct SynthCalibrationReport {
   int orb_outside_min = 0, orb_outside_max = 0;
   double orb_outside_mean = 0;
   int dropped = 0;               // frames missing from the stream
+  bool orb_ok = false;           // ORB < 100 per frame inside the stretch (drop: a gap)
+  bool colmap_ok = false;        // >= 90 % registered in one model (kidnap: not required)
+  // Both. Without orb_ok the stretch is still fair when rumi's front loses
+  // track in it (the "or"), which only a front run can tell.
   bool ok = false;
   std::string Summary() const;
 };
