@@ -18,6 +18,9 @@ struct BackOptions {
   int sequential_overlap = 10;         // neighbours matched by the sequential matcher
   double step_timeout_s = 600.0;       // per COLMAP step; the process group is killed after it
   int min_registered_images = 3;       // smaller models are dropped (also Mapper.min_model_size)
+  // Points seen by fewer images are dropped from the back submap: SfM keeps
+  // two-view points that ORB-SLAM's map-point rule would cull (2 keeps all).
+  int min_point_observations = 3;
   int max_queue_windows = 2;           // windows waiting; the oldest is dropped beyond it
   bool low_priority = true;            // SCHED_IDLE (or nice 19) for rumi-back and COLMAP
   // Dark or washed-out frames (the ones the front loses) give SIFT too few

@@ -276,6 +276,8 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
         k.height != c.height) {
       return finish(BackStatus::kModelError, dir.string() + ": COLMAP changed the fixed intrinsics");
     }
+    DropWeakPoints(&b.submap, options_.min_point_observations);
+    b.stats.num_points = static_cast<int>(b.submap.points.size());
     if (b.stats.registered_images < options_.min_registered_images) {
       res.warnings.push_back(dir.filename().string() + ": dropped, " +
                              std::to_string(b.stats.registered_images) + " registered images");

@@ -70,4 +70,10 @@ struct Submap {
   std::vector<FrameRecord> frames;     // front: every frame of this submap
 };
 
+// Removes the points observed by fewer than min_observations keyframes and
+// unlinks them from the keyframes (point_ids -1). The ORB-SLAM map-point rule
+// applied to a back submap: SfM keeps two-view points that a keyframe-based
+// map would have culled. Returns the number removed.
+int DropWeakPoints(Submap* submap, int min_observations);
+
 }  // namespace rumi

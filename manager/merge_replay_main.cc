@@ -26,11 +26,14 @@ int Main(int argc, char** argv) {
   CLI::App app{"rumi-merge-replay: re-runs the manager's merge on a saved map"};
   std::string map_path, config_path, traj_path;
   bool no_frame_pairs = false, no_culling = false;
+  int min_back_obs = 0;
   app.add_option("--map", map_path, "map file to load (e.g. map.rumi.raw)")->required();
   app.add_option("--config", config_path, "rumi YAML config (section manager:)");
   app.add_option("--trajectory", traj_path, "write the largest component's trajectory here (TUM)");
   app.add_flag("--no-frame-pairs", no_frame_pairs, "manager.pair_tracked_frames = false");
   app.add_flag("--no-post-culling", no_culling, "skip redundant-keyframe culling");
+  app.add_option("--min-back-observations", min_back_obs,
+                 "first drop back-submap points seen by fewer keyframes (what back.min_point_observations does)");
   CLI11_PARSE(app, argc, argv);
 
   ManagerProcessConfig config;
@@ -52,6 +55,14 @@ int Main(int argc, char** argv) {
     std::cerr << "rumi-merge-replay: cannot load " << map_path << ": " << why << "\n";
     return 1;
   }
+  if (min_back_obs > 0) {
+    for (size_t i = 0; i < map.size(); ++i)
+      if (map.submap(int(i)).source == SubmapSource::kBack) {
+        const int n = DropWeakPoints(&map.submap(int(i)), min_back_obs);
+        std::printf("%s: dropped %d points seen by < %d keyframes, %zu left\n", ToString(map.Key(int(i))).c_str(), n,
+                    min_back_obs, map.submap(int(i)).points.size());
+      }
+  }
   const auto reports = MergeAll(&map, config.manager);
   for (const MergeReport& r : reports) {
     std::cout << fmt::format(
@@ -62,7 +73,14 @@ int Main(int argc, char** argv) {
         r.refine_final_rmse_px, r.fused_points, r.seconds_align, r.seconds_refine, r.seconds_weld,
         r.reason.empty() ? "" : " reason=\"" + r.reason + "\"");
   }
-  if (!no_culling) CullRedundantKeyframes(&map, config.manager);
+  if (!no_culling) {
+    const CullingReport c = CullRedundantKeyframes(&map, config.manager);
+    std::printf("post-culling: keyframes %d -> %d (back %d, front %d culled); back keyframes examined %d, "
+                "median share of points seen by >= %d others %.2f (needs %.2f)\n",
+                c.keyframes_before, c.keyframes_after, c.culled_back, c.culled_front, c.back_examined,
+                config.manager.culling_min_observers, c.back_redundant_share_median,
+                config.manager.culling_redundant_ratio);
+  }
   const int root = map.size() ? map.LargestComponent() : -1;
   const auto traj = root >= 0 ? ComputeGlobalTrajectory(map, root) : std::vector<GlobalPose>();
   int components = 0;

@@ -77,6 +77,7 @@ CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& optio
   for (int s = 0; s < n; ++s) alive[s] = int(map->submap(s).keyframes.size());
   auto is_culled = [&](int s, int64_t kf) { return culled[s].count(kf) > 0; };
 
+  std::vector<double> back_shares;
   for (const bool back_pass : {true, false}) {
     for (int s = 0; s < n; ++s) {
       Submap& m = map->submap(s);
@@ -99,6 +100,7 @@ CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& optio
           }
           if (int(seen.size()) >= options.culling_min_observers) ++redundant;
         }
+        if (back_pass && with_point > 0) back_shares.push_back(double(redundant) / with_point);
         if (with_point > 0 && redundant >= options.culling_redundant_ratio * with_point) {
           culled[s].insert(kf.id);
           --alive[s];
@@ -108,6 +110,11 @@ CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& optio
     }
   }
 
+  rep.back_examined = int(back_shares.size());
+  if (!back_shares.empty()) {
+    std::nth_element(back_shares.begin(), back_shares.begin() + back_shares.size() / 2, back_shares.end());
+    rep.back_redundant_share_median = back_shares[back_shares.size() / 2];
+  }
   // Apply: keep culled poses as frame records, drop their observations and
   // the points that only they supported.
   for (int s = 0; s < n; ++s) {

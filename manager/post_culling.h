@@ -15,6 +15,11 @@ struct CullingReport {
   int keyframes_before = 0, keyframes_after = 0;  // "saved frames"
   int points_before = 0, points_after = 0;
   int culled_back = 0, culled_front = 0;
+  // Why back keyframes stay: over the back keyframes examined, the median
+  // share of their points seen by culling_min_observers others (culling
+  // needs culling_redundant_ratio), at the time each was examined.
+  int back_examined = 0;
+  double back_redundant_share_median = 0;
 };
 
 CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& options);
