@@ -16,6 +16,7 @@ bool BackOptions::Check(std::string* why) const {
   if (!(sift_peak_threshold >= 0.0 && sift_peak_threshold <= 1.0))
     return fail("sift_peak_threshold must be in [0, 1]");
   if (sift_first_octave < -1 || sift_first_octave > 2) return fail("sift_first_octave must be in [-1, 2]");
+  if (sift_upsample_below_width < 0) return fail("sift_upsample_below_width must be >= 0");
   if (matcher != "exhaustive" && matcher != "sequential")
     return fail("matcher must be 'exhaustive' or 'sequential' (got '" + matcher + "')");
   if (sequential_overlap < 1) return fail("sequential_overlap must be >= 1");
@@ -43,6 +44,7 @@ void ReadOptions(ConfigSection& s, BackOptions* o) {
   s.Read("normalize_contrast", &o->normalize_contrast);
   s.ReadInRange("sift_peak_threshold", &o->sift_peak_threshold, 0.0, 1.0);
   s.ReadInRange("sift_first_octave", &o->sift_first_octave, -1, 2);
+  s.ReadInRange("sift_upsample_below_width", &o->sift_upsample_below_width, 0, 100000);
   if (s.Read("matcher", &o->matcher) && o->matcher != "exhaustive" && o->matcher != "sequential")
     s.Fail("matcher", "must be 'exhaustive' or 'sequential'");
   s.ReadInRange("sequential_overlap", &o->sequential_overlap, 1, 1000);

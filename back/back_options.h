@@ -14,6 +14,10 @@ struct BackOptions {
   int num_threads = 2;                 // per COLMAP step (extraction, matching, mapping)
   int max_num_features = 2048;         // SIFT features per image
   int sift_first_octave = 0;           // -1 upsamples (COLMAP default, slower); 0 is enough at VGA
+  // Images narrower than this are upsampled anyway (first octave -1): at
+  // 320x240, octave 0 left 6 of 56 frames of a generated blur window out of
+  // the model, -1 registered all 56. 0 = never.
+  int sift_upsample_below_width = 640;
   std::string matcher = "exhaustive";  // "exhaustive" | "sequential" (by name = time order)
   int sequential_overlap = 10;         // neighbours matched by the sequential matcher
   double step_timeout_s = 600.0;       // per COLMAP step; the process group is killed after it
@@ -26,7 +30,9 @@ struct BackOptions {
   // Dark or washed-out frames (the ones the front loses) give SIFT too few
   // features at COLMAP's absolute peak threshold: stretch their grey levels.
   bool normalize_contrast = true;
-  double sift_peak_threshold = 0.0;    // COLMAP SiftExtraction.peak_threshold; 0 = COLMAP's default
+  // COLMAP SiftExtraction.peak_threshold; 0 = COLMAP's default (0.0067).
+  // Lower: motion-blurred frames keep enough features (docs/back.md).
+  double sift_peak_threshold = 0.004;
 
   bool Check(std::string* why = nullptr) const;
   // Resolved workspace root (workspace_dir or the default under $TMPDIR).

@@ -198,13 +198,15 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
     double* cpu_seconds;
   };
   std::vector<Step> steps;
+  const int first_octave =
+      window.camera.width < options_.sift_upsample_below_width ? -1 : options_.sift_first_octave;
   steps.push_back({"feature_extraction",
                    {"feature_extractor", "--database_path", db.string(), "--image_path",
                     images.string(), "--ImageReader.camera_model", "PINHOLE",
                     "--ImageReader.single_camera", "1", "--ImageReader.camera_params", params,
                     "--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads", threads,
                     "--SiftExtraction.max_num_features", std::to_string(options_.max_num_features),
-                    "--SiftExtraction.first_octave", std::to_string(options_.sift_first_octave)},
+                    "--SiftExtraction.first_octave", std::to_string(first_octave)},
                    &res.times.feature_extraction_s, &res.times.feature_extraction_cpu_s});
   if (options_.sift_peak_threshold > 0) {
     steps.back().args.insert(steps.back().args.end(),

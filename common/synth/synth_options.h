@@ -42,8 +42,8 @@ struct SynthOptions {
   // Scenario knobs (defaults and their calibration figures: docs/synth.md).
   double blur_peak_rate_deg = 180.0;  // blur: yaw sweep rate through the stretch
   double blur_shake_rate_deg = 220.0; // blur: angular speed of the 8 Hz shake
-  double blur_gain = 0.5;             // blur: exposure gain in the stretch (dim light, long shutter)
-  double blur_exposure_frac = 0.9;    // blur: shutter time / frame interval
+  double blur_gain = 1.0;             // blur: exposure gain in the stretch
+  double blur_exposure_frac = 0.3;    // blur: shutter time / frame interval in the stretch
   double dark_gain = 0.1;             // dark: exposure gain at the bottom
   double drop_turn_deg = -45.0;       // drop: turn (deg, + left) while frames are missing, then back
   double weak_distance = 1.0;         // weak: distance to the plain wall
