@@ -10,20 +10,13 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "tests/rumi_cli_util.h"
+
 namespace {
 namespace fs = std::filesystem;
 
-int RunRumi(const std::string& args, const fs::path& log) {
-  const std::string cmd = std::string(std::getenv("RUMI_BIN_DIR")) + "/rumi " + args + " > " +
-                          log.string() + " 2>&1";
-  const int status = std::system(cmd.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-std::string Slurp(const fs::path& p) {
-  std::ifstream in(p);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
+using rumi::test::Slurp;
+int RunRumi(const std::string& args, const fs::path& log) { return rumi::test::RunRumiLogged(args, log); }
 
 TEST(EvalRun, FrontOnlyRunWritesCompleteMetrics) {
   const fs::path dir = fs::temp_directory_path() / ("rumi_eval_run_test_" + std::to_string(getpid()));

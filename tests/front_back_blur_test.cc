@@ -17,6 +17,7 @@
 
 #include "common/run_metrics.h"
 #include "common/timestamp.h"
+#include "tests/rumi_cli_util.h"
 
 namespace rumi {
 namespace {
@@ -28,16 +29,8 @@ namespace fs = std::filesystem;
 // first front submap then fails and the test would be flaky.)
 const char* kSynthArgs = "--scenario blur --seed 2 --frames 150 --size 640x480";
 
-int RunRumi(const std::string& args, const fs::path& log) {
-  const std::string cmd = std::string(std::getenv("RUMI_BIN_DIR")) + "/rumi " + args + " > " + log.string() + " 2>&1";
-  const int status = std::system(cmd.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-std::string Slurp(const fs::path& p) {
-  std::ifstream in(p);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
+using test::Slurp;
+int RunRumi(const std::string& args, const fs::path& log) { return test::RunRumiLogged(args, log); }
 
 TEST(FrontBackBlur, BackSubmapCoversTheFramesTheFrontLost) {
   const fs::path dir = fs::temp_directory_path() / ("rumi_front_back_blur_test_" + std::to_string(getpid()));
