@@ -124,7 +124,7 @@ void FrontPublisher::EnqueueWindow(ImageWindow&& w) {
   ++t_stats_.windows;
   for (const WindowFrame& f : w.frames) staged_samples_.push_back({f.timestamp, f.set, w.id});
   // At the end (Finish) the last window is never refused for room.
-  if (!last_window_ && known_bounded_ + staged_bounded_ >= static_cast<size_t>(o_.queue_capacity)) {
+  if (!last_window_ && bounded_jobs_ + staged_bounded_ >= static_cast<size_t>(o_.queue_capacity)) {
     ++t_stats_.windows_dropped;
     return;
   }
@@ -146,8 +146,6 @@ void FrontPublisher::Handoff(bool block) {
     if (j.kind == Job::kResend) ++resends_queued_;
     jobs_.push_back(std::move(j));
   }
-  known_bounded_ = bounded_jobs_;
-  known_resends_ = resends_queued_;
   l.unlock();
   staged_lines_.clear();
   staged_samples_.clear();
@@ -201,7 +199,7 @@ void FrontPublisher::OnFrame(const FrameRecord& rec, const cv::Mat& image, doubl
       resend_gap_s_ = o_.resend_interval_s;
     } else if (NsToSeconds(rec.timestamp - last_resend_t_) >= resend_gap_s_) {
       last_resend_t_ = rec.timestamp;
-      if (known_resends_ + staged_resends_ > 0 || known_bounded_ + staged_bounded_ >= static_cast<size_t>(o_.queue_capacity)) {
+      if (resends_queued_ + staged_resends_ > 0 || bounded_jobs_ + staged_bounded_ >= static_cast<size_t>(o_.queue_capacity)) {
         ++t_stats_.submap_drops;  // the previous one is still queued: skip this one
       } else {
         const int64_t s0 = SteadyNs();

@@ -149,7 +149,6 @@ class FrontPublisher {
   std::vector<SampleLine> staged_samples_;
   std::vector<Job> staged_jobs_;
   size_t staged_bounded_ = 0, staged_resends_ = 0;
-  size_t known_bounded_ = 0, known_resends_ = 0;  // queue state seen at the last handoff
   bool last_window_ = false;
   std::vector<float> on_frame_us_, snapshot_ms_;
   double finished_copy_ms_max_ = 0;
@@ -159,8 +158,10 @@ class FrontPublisher {
   mutable std::mutex mutex_;
   std::condition_variable cv_;
   std::deque<Job> jobs_;
-  size_t bounded_jobs_ = 0;  // windows + resends in jobs_
-  size_t resends_queued_ = 0;
+  // Read by the tracking thread without the lock: a publisher thread
+  // preempted while holding mutex_ must not leave it deciding on stale counts.
+  std::atomic<size_t> bounded_jobs_{0};  // windows + resends in jobs_
+  std::atomic<size_t> resends_queued_{0};  // handed off and not yet sent
   std::vector<FrameLine> frame_lines_;
   std::vector<SampleLine> sample_lines_;
   bool finishing_ = false, stopping_ = false, quit_ = false;

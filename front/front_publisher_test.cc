@@ -193,16 +193,20 @@ TEST(FrontPublisher, ShipsWindowsSubmapsAndWritesFiles) {
   // (submap 1: its first tracked frame is 42).
   const std::map<int, std::pair<int64_t, size_t>> resend_at = {{10, {0, 1}}, {20, {0, 2}}, {52, {1, 1}},
                                                                {62, {1, 2}}, {72, {1, 3}}};
+  size_t resends = 0;
   for (int i = 0; i < static_cast<int>(ff.records.size()); ++i) {
     if (i == 51) pub.OnSkipped(T(50) + 50 * kMs);  // a frame the replay dropped between 50 and 51
     ff.Step(i);
     pub.OnFrame(ff.records[i], Image(i), 10.0 + i, 5.0, 0, ff.finished, snap);
     auto it = resend_at.find(i);
     if (it != resend_at.end()) {
-      // Wait for that resend to reach the consumer before the next one is due
-      // (a resend is skipped while the previous one is still queued).
+      // Wait for that resend to reach the consumer and to be counted sent
+      // before the next one is due (a resend is skipped while the previous
+      // one is still queued).
+      ++resends;
       const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-      while (consumers.resends_of(it->second.first) < it->second.second && std::chrono::steady_clock::now() < until)
+      while ((consumers.resends_of(it->second.first) < it->second.second || pub.stats().resends_sent < resends) &&
+             std::chrono::steady_clock::now() < until)
         std::this_thread::sleep_for(std::chrono::milliseconds(2));
     }
   }
