@@ -25,6 +25,12 @@ struct BackOptions {
   // Points seen by fewer images are dropped from the back submap: SfM keeps
   // two-view points that ORB-SLAM's map-point rule would cull (2 keeps all).
   int min_point_observations = 3;
+  // Before that, tracks are completed by reprojection (CompleteTracks): a
+  // free SIFT keypoint within this radius of a point's projection becomes an
+  // observation. The pairwise matcher misses many on dark or noisy frames,
+  // leaving short tracks that make every keyframe look necessary to
+  // post-culling. 0 = off.
+  double track_completion_px = 2.0;
   int max_queue_windows = 2;           // windows waiting; the oldest is dropped beyond it
   bool low_priority = true;            // SCHED_IDLE (or nice 19) for rumi-back and COLMAP
   // Dark or washed-out frames (the ones the front loses) give SIFT too few

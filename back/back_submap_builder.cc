@@ -278,7 +278,10 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
         k.height != c.height) {
       return finish(BackStatus::kModelError, dir.string() + ": COLMAP changed the fixed intrinsics");
     }
-    DropWeakPoints(&b.submap, options_.min_point_observations);
+    const int completed = CompleteTracks(&b.submap, options_.track_completion_px);
+    const int weak = DropWeakPoints(&b.submap, options_.min_point_observations);
+    spdlog::info("back: {}: {} observations added by track completion, {} weak points dropped",
+                 dir.filename().string(), completed, weak);
     b.stats.num_points = static_cast<int>(b.submap.points.size());
     if (b.stats.registered_images < options_.min_registered_images) {
       res.warnings.push_back(dir.filename().string() + ": dropped, " +

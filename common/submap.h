@@ -76,4 +76,13 @@ struct Submap {
 // map would have culled. Returns the number removed.
 int DropWeakPoints(Submap* submap, int min_observations);
 
+// Track completion by reprojection: a point is also observed by a keyframe
+// where it projects (in front of the camera, inside the image) within
+// max_px of a keypoint that has no point yet, and the nearest such keypoint is
+// closer than `ratio` times the second nearest within max_px (else it is
+// ambiguous); the closest claim wins. SfM leaves such observations out when
+// the pairwise matcher missed them (dark, noisy frames), which makes every
+// track short. Returns the observations added.
+int CompleteTracks(Submap* submap, double max_px, double ratio = 0.7);
+
 }  // namespace rumi

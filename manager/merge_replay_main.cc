@@ -27,11 +27,13 @@ int Main(int argc, char** argv) {
   std::string map_path, config_path, traj_path;
   bool no_frame_pairs = false, no_culling = false;
   int min_back_obs = 0;
+  double complete_px = 0;
   app.add_option("--map", map_path, "map file to load (e.g. map.rumi.raw)")->required();
   app.add_option("--config", config_path, "rumi YAML config (section manager:)");
   app.add_option("--trajectory", traj_path, "write the largest component's trajectory here (TUM)");
   app.add_flag("--no-frame-pairs", no_frame_pairs, "manager.pair_tracked_frames = false");
   app.add_flag("--no-post-culling", no_culling, "skip redundant-keyframe culling");
+  app.add_option("--complete-back-tracks", complete_px, "track completion radius (px) for back submaps (0 = off)");
   app.add_option("--min-back-observations", min_back_obs,
                  "first drop back-submap points seen by fewer keyframes (what back.min_point_observations does)");
   CLI11_PARSE(app, argc, argv);
@@ -54,6 +56,15 @@ int Main(int argc, char** argv) {
   if (!LoadGlobalMap(map_path, &map, &why)) {
     std::cerr << "rumi-merge-replay: cannot load " << map_path << ": " << why << "\n";
     return 1;
+  }
+  if (complete_px > 0) {
+    for (size_t i = 0; i < map.size(); ++i)
+      if (map.submap(int(i)).source == SubmapSource::kBack) {
+        size_t before = 0;
+        for (const MapPoint& p : map.submap(int(i)).points) before += p.observations.size();
+        const int n = CompleteTracks(&map.submap(int(i)), complete_px);
+        std::printf("%s: track completion added %d observations to %zu\n", ToString(map.Key(int(i))).c_str(), n, before);
+      }
   }
   if (min_back_obs > 0) {
     for (size_t i = 0; i < map.size(); ++i)
