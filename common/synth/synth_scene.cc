@@ -9,13 +9,6 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-inline uint64_t Mix(uint64_t x) {
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
-
 // Uniform in [0, 1) from a hash.
 inline double Unit(uint64_t h) { return static_cast<double>(h >> 11) * (1.0 / 9007199254740992.0); }
 
@@ -38,9 +31,39 @@ inline Cell CellOf(double u, double v, double size) {
   const double fa = std::floor(a), fb = std::floor(b);
   return {static_cast<int64_t>(fa), static_cast<int64_t>(fb), a - fa, b - fb};
 }
-inline double CellRand(const Cell& c, uint64_t seed, int k) {
-  return Unit(SynthHash(seed, static_cast<uint64_t>(c.i), static_cast<uint64_t>(c.j),
-                        static_cast<uint64_t>(k)));
+// Hash prefix SynthHash(seed, i, j, .) of a cell: its k-th value costs one
+// more mixing step (CellRand(c, seed, k) == CellRandK(CellKey(c, seed), k)).
+inline uint64_t CellKey(const Cell& c, uint64_t seed) {
+  return SynthHashC(SynthHashB(SynthHashA(seed), static_cast<uint64_t>(c.i)), static_cast<uint64_t>(c.j));
+}
+inline double CellRandK(uint64_t key, int k) { return Unit(SynthHashD(key, static_cast<uint64_t>(k))); }
+inline double CellRand(const Cell& c, uint64_t seed, int k) { return CellRandK(CellKey(c, seed), k); }
+
+// Random values 0..10 of a cell, memoised per thread (exact, like the
+// lattice cache of SynthValueNoise, so images do not change).
+struct CellCache {
+  static constexpr int kSize = 256;
+  struct Entry {
+    uint64_t seed = 0;
+    int64_t i = std::numeric_limits<int64_t>::min(), j = 0;  // min: empty
+    double r[11] = {};
+  };
+  Entry entries[kSize];
+};
+
+const double* CellValues(const Cell& c, uint64_t seed) {
+  thread_local CellCache cache;
+  const uint64_t slot = ((static_cast<uint64_t>(c.i) * 0x9e3779b97f4a7c15ULL) ^
+                         (static_cast<uint64_t>(c.j) * 0xc2b2ae3d27d4eb4fULL) ^ (seed * 0x165667b19e3779f9ULL)) >>
+                        56;  // 8 bits: kSize
+  CellCache::Entry& e = cache.entries[slot];
+  if (e.i == c.i && e.j == c.j && e.seed == seed) return e.r;
+  const uint64_t key = CellKey(c, seed);
+  e.seed = seed;
+  e.i = c.i;
+  e.j = c.j;
+  for (int k = 0; k < 11; ++k) e.r[k] = CellRandK(key, k);
+  return e.r;
 }
 
 // Dark or light blot / stroke inside one cell of `size` metres (cell-local
@@ -48,32 +71,48 @@ inline double CellRand(const Cell& c, uint64_t seed, int k) {
 double CellMarks(double u, double v, uint64_t seed, double size, double density,
                  double strength) {
   const Cell c = CellOf(u, v, size);
-  if (CellRand(c, seed, 0) >= density) return 0.0;
-  const double kind = CellRand(c, seed, 1);
-  const double sign = CellRand(c, seed, 2) < 0.5 ? -1.0 : 1.0;
-  const double amp = strength * (0.5 + 0.5 * CellRand(c, seed, 3));
-  const double cu = 0.3 + 0.4 * CellRand(c, seed, 4), cv = 0.3 + 0.4 * CellRand(c, seed, 5);
+  const double* rnd = CellValues(c, seed);
+  if (rnd[0] >= density) return 0.0;
+  const double kind = rnd[1];
+  const double sign = rnd[2] < 0.5 ? -1.0 : 1.0;
+  const double amp = strength * (0.5 + 0.5 * rnd[3]);
+  const double cu = 0.3 + 0.4 * rnd[4], cv = 0.3 + 0.4 * rnd[5];
   const double du = (c.fu - cu) * size, dv = (c.fv - cv) * size;
   if (kind < 0.45) {  // soft-edged blot with a noisy outline
-    const double r = size * (0.08 + 0.17 * CellRand(c, seed, 6));
+    const double r = size * (0.08 + 0.17 * rnd[6]);
     const double wob = 1.0 + 0.25 * SynthValueNoise(u * 30, v * 30, seed + 17);
     const double d = std::sqrt(du * du + dv * dv) / (r * wob);
     return sign * amp * (1.0 - SmoothStep(0.8, 1.0, d));
   }
   if (kind < 0.8) {  // stroke: a thick segment
-    const double ang = kPi * CellRand(c, seed, 7);
+    const double ang = kPi * rnd[7];
     const double ca = std::cos(ang), sa = std::sin(ang);
     const double along = du * ca + dv * sa, across = -du * sa + dv * ca;
-    const double half_len = size * (0.1 + 0.18 * CellRand(c, seed, 8));
-    const double half_w = size * (0.012 + 0.03 * CellRand(c, seed, 9));
+    const double half_len = size * (0.1 + 0.18 * rnd[8]);
+    const double half_w = size * (0.012 + 0.03 * rnd[9]);
     const double d = std::max(std::abs(along) / half_len, std::abs(across) / half_w);
     return sign * amp * (1.0 - SmoothStep(0.85, 1.0, d));
   }
   // ring
-  const double r = size * (0.1 + 0.15 * CellRand(c, seed, 10));
+  const double r = size * (0.1 + 0.15 * rnd[10]);
   const double w = r * 0.25;
   const double d = std::abs(std::sqrt(du * du + dv * dv) - r) / w;
   return sign * amp * (1.0 - SmoothStep(0.7, 1.0, d));
+}
+
+constexpr int kPosterShapes = 14;
+
+SynthPosterShape PosterShape(const SynthDecal& d, int k) {
+  const double w = d.u1 - d.u0, h = d.v1 - d.v0;
+  SynthPosterShape p;
+  p.seed = SynthHash(d.seed, static_cast<uint64_t>(k));
+  p.kind = Unit(SynthHash(p.seed, 1));
+  p.cx = 0.1 + 0.8 * Unit(SynthHash(p.seed, 2));
+  p.cy = 0.1 + 0.8 * Unit(SynthHash(p.seed, 3));
+  p.sx = (0.03 + 0.15 * Unit(SynthHash(p.seed, 4))) * std::min(w, h) / w;
+  p.sy = (0.03 + 0.15 * Unit(SynthHash(p.seed, 5))) * std::min(w, h) / h;
+  p.value = 0.05 + 0.9 * Unit(SynthHash(p.seed, 6));
+  return p;
 }
 
 double PosterAlbedo(const SynthDecal& d, double u, double v) {
@@ -83,21 +122,16 @@ double PosterAlbedo(const SynthDecal& d, double u, double v) {
   if (x < 0.03 || x > 0.97 || y < 0.03 || y > 0.97) return 0.12;
   double a = 0.55 + 0.35 * (Unit(SynthHash(d.seed, 99)) - 0.5) +
              0.12 * SynthFbm(u, v, d.seed + 5, 3, 3.0);
-  const int n = 14;
-  for (int k = 0; k < n; ++k) {
-    const uint64_t s = SynthHash(d.seed, static_cast<uint64_t>(k));
-    const double kind = Unit(SynthHash(s, 1));
-    const double cx = 0.1 + 0.8 * Unit(SynthHash(s, 2)), cy = 0.1 + 0.8 * Unit(SynthHash(s, 3));
-    const double sx = (0.03 + 0.15 * Unit(SynthHash(s, 4))) * std::min(w, h) / w;
-    const double sy = (0.03 + 0.15 * Unit(SynthHash(s, 5))) * std::min(w, h) / h;
-    const double val = 0.05 + 0.9 * Unit(SynthHash(s, 6));
-    const double dx = (x - cx) / sx, dy = (y - cy) / sy;
+  const bool prepared = static_cast<int>(d.shapes.size()) == kPosterShapes;
+  for (int k = 0; k < kPosterShapes; ++k) {
+    const SynthPosterShape sh = prepared ? d.shapes[k] : PosterShape(d, k);
+    const double dx = (x - sh.cx) / sh.sx, dy = (y - sh.cy) / sh.sy;
     bool in = false;
-    if (kind < 0.35) {
+    if (sh.kind < 0.35) {
       in = dx * dx + dy * dy < 1.0;
-    } else if (kind < 0.6) {
+    } else if (sh.kind < 0.6) {
       in = std::abs(dx) < 1.0 && std::abs(dy) < 1.0;
-    } else if (kind < 0.8) {  // hollow frame
+    } else if (sh.kind < 0.8) {  // hollow frame
       const double m = std::max(std::abs(dx), std::abs(dy));
       in = m < 1.0 && m > 0.7;
     } else {  // text-like rows of bars
@@ -105,11 +139,11 @@ double PosterAlbedo(const SynthDecal& d, double u, double v) {
         const double row = (dy + 0.6) / 1.2 * 3.0;
         const double col = (dx + 2.0) * 4.0;
         const int ci = static_cast<int>(col);
-        const bool gap = Unit(SynthHash(s, static_cast<uint64_t>(ci), 7)) < 0.3;
+        const bool gap = Unit(SynthHash(sh.seed, static_cast<uint64_t>(ci), 7)) < 0.3;
         in = !gap && (row - std::floor(row)) < 0.55 && (col - std::floor(col)) < 0.75;
       }
     }
-    if (in) a = val;
+    if (in) a = sh.value;
   }
   return a;
 }
@@ -196,21 +230,53 @@ double DistToBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, const Eig
 
 }  // namespace
 
-uint64_t SynthHash(uint64_t a, uint64_t b, uint64_t c, uint64_t d) {
-  uint64_t h = Mix(a ^ 0x51ed270b27bd1a2bULL);
-  h = Mix(h ^ b);
-  h = Mix(h ^ (c * 0x632be59bd9b4e019ULL));
-  return Mix(h ^ (d * 0x85157af5ULL));
+namespace {
+
+// The four lattice values of a noise cell, memoised per thread: neighbouring
+// rays (supersamples, pixels of a row) mostly fall into the same cells of
+// the low octaves, and hashing them dominated the render time. A cache hit
+// returns exactly the values the hash gives, so images do not change.
+struct LatticeCache {
+  static constexpr int kSize = 512;
+  struct Entry {
+    uint64_t seed = 0;
+    int64_t i = std::numeric_limits<int64_t>::min(), j = 0;  // min: empty
+    double v[4] = {0, 0, 0, 0};
+  };
+  Entry entries[kSize];
+};
+
+const double* LatticeValues(uint64_t seed, int64_t i, int64_t j) {
+  thread_local LatticeCache cache;
+  const uint64_t slot = ((static_cast<uint64_t>(i) * 0x9e3779b97f4a7c15ULL) ^
+                         (static_cast<uint64_t>(j) * 0xc2b2ae3d27d4eb4fULL) ^ (seed * 0x165667b19e3779f9ULL)) >>
+                        55;  // 9 bits: kSize
+  LatticeCache::Entry& e = cache.entries[slot];
+  if (e.i == i && e.j == j && e.seed == seed) return e.v;
+  // The four corners share the seed step and two column steps of the hash.
+  const uint64_t hs = SynthHashA(seed);
+  const uint64_t h0 = SynthHashB(hs, static_cast<uint64_t>(i)), h1 = SynthHashB(hs, static_cast<uint64_t>(i + 1));
+  auto g = [](uint64_t hcol, int64_t b) {
+    return 2.0 * Unit(SynthHashD(SynthHashC(hcol, static_cast<uint64_t>(b)), 0)) - 1.0;
+  };
+  e.seed = seed;
+  e.i = i;
+  e.j = j;
+  e.v[0] = g(h0, j);
+  e.v[1] = g(h1, j);
+  e.v[2] = g(h0, j + 1);
+  e.v[3] = g(h1, j + 1);
+  return e.v;
 }
+
+}  // namespace
 
 double SynthValueNoise(double u, double v, uint64_t seed) {
   const double fu = std::floor(u), fv = std::floor(v);
   const int64_t i = static_cast<int64_t>(fu), j = static_cast<int64_t>(fv);
   const double tu = Smooth5(u - fu), tv = Smooth5(v - fv);
-  auto g = [&](int64_t a, int64_t b) {
-    return 2.0 * Unit(SynthHash(seed, static_cast<uint64_t>(a), static_cast<uint64_t>(b))) - 1.0;
-  };
-  const double a = g(i, j), b = g(i + 1, j), c = g(i, j + 1), d = g(i + 1, j + 1);
+  const double* g = LatticeValues(seed, i, j);
+  const double a = g[0], b = g[1], c = g[2], d = g[3];
   return (a + (b - a) * tu) + ((c + (d - c) * tu) - (a + (b - a) * tu)) * tv;
 }
 
@@ -227,6 +293,12 @@ double SynthFbm(double u, double v, uint64_t seed, int octaves, double base_freq
     v = rv;
   }
   return sum / norm;
+}
+
+void PreparePoster(SynthDecal* d) {
+  d->shapes.clear();
+  if (d->kind != SynthDecalKind::kPoster) return;
+  for (int k = 0; k < kPosterShapes; ++k) d->shapes.push_back(PosterShape(*d, k));
 }
 
 double SynthScene::Albedo(const SynthQuad& q, const Eigen::Vector3d& p) const {
@@ -274,17 +346,20 @@ bool SynthScene::CastRay(const Eigen::Vector3d& o, const Eigen::Vector3d& d, Syn
     best_quad = static_cast<int>(k);
     best_axis = q.axis;
   }
+  // Slab test; the reciprocals are shared by all boxes.
+  const bool flat[3] = {std::abs(d[0]) < 1e-15, std::abs(d[1]) < 1e-15, std::abs(d[2]) < 1e-15};
+  const double inv_d[3] = {flat[0] ? 0.0 : 1.0 / d[0], flat[1] ? 0.0 : 1.0 / d[1], flat[2] ? 0.0 : 1.0 / d[2]};
   for (size_t k = 0; k < boxes.size(); ++k) {
     const SynthBox& b = boxes[k];
     double t0 = t_min, t1 = best;
     int axis = -1;
     bool miss = false;
     for (int a = 0; a < 3 && !miss; ++a) {
-      if (std::abs(d[a]) < 1e-15) {
+      if (flat[a]) {
         if (o[a] < b.lo[a] || o[a] > b.hi[a]) miss = true;
         continue;
       }
-      const double inv = 1.0 / d[a];
+      const double inv = inv_d[a];
       double ta = (b.lo[a] - o[a]) * inv, tb = (b.hi[a] - o[a]) * inv;
       if (ta > tb) std::swap(ta, tb);
       if (ta > t0) {
@@ -411,6 +486,7 @@ void AddWallDecal(SynthQuad* q, SynthDecalKind kind, double h0, double h1, doubl
   } else {
     d.u0 = z0; d.u1 = z1; d.v0 = h0; d.v1 = h1;
   }
+  PreparePoster(&d);
   q->decals.push_back(d);
 }
 
@@ -512,7 +588,9 @@ SynthScene BuildRoomScene(uint64_t seed, double lx, double ly, double h) {
 SynthScene BuildCorridorScene(uint64_t seed, double la, double lb, double w, double h) {
   SynthScene s;
   Rng rng{SynthHash(seed, 0xc0de)};
-  const double c = 0.6;  // low contrast: a drainage channel is mostly bare concrete
+  // Stained bare concrete everywhere (dim under the headlamp): enough for a
+  // tracker in the legs, which the calm zone below removes at the turn.
+  const double c = 1.0;
   const uint64_t wall_seed = SynthHash(seed, 30);
   // Leg A walls.
   s.quads.push_back(Wall(1, 0.0, 0.0, la, 0.0, h, SynthMaterial::kConcrete, wall_seed, c));    // y = 0
@@ -524,18 +602,20 @@ SynthScene BuildCorridorScene(uint64_t seed, double la, double lb, double w, dou
   s.quads.push_back(Wall(1, lb, la - w, la, 0.0, h, SynthMaterial::kConcrete, wall_seed + 5, c));  // y = lb
   // Floor and ceiling of both legs share seeds, so their overlap agrees.
   const uint64_t floor_seed = SynthHash(seed, 31), ceil_seed = SynthHash(seed, 32);
-  s.quads.push_back(Horizontal(0.0, 0, la, 0, w, SynthMaterial::kConcrete, floor_seed, 0.6));
-  s.quads.push_back(Horizontal(0.0, la - w, la, 0, lb, SynthMaterial::kConcrete, floor_seed, 0.6));
-  s.quads.push_back(Horizontal(h, 0, la, 0, w, SynthMaterial::kPlain, ceil_seed));
-  s.quads.push_back(Horizontal(h, la - w, la, 0, lb, SynthMaterial::kPlain, ceil_seed));
+  s.quads.push_back(Horizontal(0.0, 0, la, 0, w, SynthMaterial::kConcrete, floor_seed, 1.0));
+  s.quads.push_back(Horizontal(0.0, la - w, la, 0, lb, SynthMaterial::kConcrete, floor_seed, 1.0));
+  s.quads.push_back(Horizontal(h, 0, la, 0, w, SynthMaterial::kConcrete, ceil_seed, 0.6));
+  s.quads.push_back(Horizontal(h, la - w, la, 0, lb, SynthMaterial::kConcrete, ceil_seed, 0.6));
 
-  // Marks along the legs (pipes' joints, graffiti-like posters, markers),
-  // none within `quiet` metres of the turn.
+  // Marks along the legs (graffiti-like posters, markers) every 0.8-1.6 m,
+  // none within `quiet` + 0.4 m of the calm zone.
   const double quiet = 1.8;
   const Eigen::Vector2d corner(la - w / 2, w / 2);
-  // Texture-poor around the turn and on into leg B, which the camera faces
-  // during the second half of the turn.
-  const std::vector<Eigen::Vector2d> calm = {corner, corner + Eigen::Vector2d(0, 1.8)};
+  // Freshly plastered start of leg B (about 1 to 4.5 m past the corner): the
+  // camera looks into it from mid-turn on. Not centred on the corner: the
+  // end wall of leg A, which the robot drives at for seconds before the
+  // turn, would then make the approach texture-poor as well.
+  const std::vector<Eigen::Vector2d> calm = {corner + Eigen::Vector2d(0, 2.0)};
   const int side_walls[] = {0, 1, 3, 4};
   for (int k = 0; k < 4; ++k) {
     SynthQuad& q = s.quads[side_walls[k]];
@@ -558,13 +638,15 @@ SynthScene BuildCorridorScene(uint64_t seed, double la, double lb, double w, dou
         }
         ++n;
       }
-      pos += rng.Uniform(1.0, 2.2);
+      pos += rng.Uniform(0.8, 1.6);
     }
   }
   for (const Eigen::Vector2d& cz : calm) s.quiet_zones.push_back({Eigen::Vector3d(cz.x(), cz.y(), h / 2), quiet, 0.4});
   s.quiet_amplitude = 0.035;
-  // Headlamp on the robot plus a little daylight from manholes.
-  s.lights.push_back({Eigen::Vector3d(0, 0, 0.05), 1.3, 2.2, true});
+  // Headlamp on the robot plus a little daylight from manholes. The slow
+  // falloff keeps walls a few metres ahead visible without clipping the end
+  // wall at 1 m.
+  s.lights.push_back({Eigen::Vector3d(0, 0, 0.05), 1.3, 3.0, true});
   s.ambient = 0.12;
   s.free_space.push_back({Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(la, w, h)});
   s.free_space.push_back({Eigen::Vector3d(la - w, 0, 0), Eigen::Vector3d(la, lb, h)});

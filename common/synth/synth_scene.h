@@ -24,13 +24,25 @@ enum class SynthDecalKind : uint8_t {
   kMarker,  // black/white checkerboard with known corners
 };
 
+// One random shape of a poster (derived from the decal's seed).
+struct SynthPosterShape {
+  uint64_t seed = 0;
+  double kind = 0, cx = 0, cy = 0, sx = 0, sy = 0, value = 0;
+};
+
 // A rectangle [u0,u1]x[v0,v1] in a surface's (u, v) coordinates.
 struct SynthDecal {
   SynthDecalKind kind = SynthDecalKind::kPoster;
   double u0 = 0, v0 = 0, u1 = 0, v1 = 0;
   int squares = 4;  // marker: squares per side
   uint64_t seed = 0;
+  // Poster shapes, precomputed from seed and bounds by PreparePoster (the
+  // renderer derives them per pixel when empty).
+  std::vector<SynthPosterShape> shapes;
 };
+
+// Fills d->shapes (a pure function of d's seed and bounds).
+void PreparePoster(SynthDecal* d);
 
 // Axis-aligned rectangle: points with p[axis] == offset and the two other
 // coordinates (u = p[(axis+1)%3], v = p[(axis+2)%3]) inside the bounds.
@@ -118,12 +130,28 @@ SynthScene BuildRoomScene(uint64_t seed, double lx = 8.0, double ly = 6.0, doubl
 
 // L-shaped drainage-like corridor: leg A along +x (x in [0, len_a], y in
 // [0, width]), leg B along +y (x in [len_a - width, len_a], y in [0, len_b]).
-// Low texture overall, marks and markers along the legs, none near the turn.
+// Stained concrete, marks and markers along the legs; a plain zone at the
+// start of leg B, which the camera faces from the middle of the turn on.
 SynthScene BuildCorridorScene(uint64_t seed, double len_a, double len_b, double width = 1.6,
                               double height = 1.5);
 
-// Deterministic noise helpers (exposed for tests).
-uint64_t SynthHash(uint64_t a, uint64_t b = 0, uint64_t c = 0, uint64_t d = 0);
+// Deterministic noise helpers (exposed for tests). SynthHash(a, b, c, d)
+// chains one mixing step per argument; the staged form below lets hot loops
+// reuse a shared prefix (same seed, same cell row) with identical results:
+// SynthHash(a, b, c, d) == SynthHashD(SynthHashC(SynthHashB(SynthHashA(a), b), c), d).
+inline uint64_t SynthMix(uint64_t x) {
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+inline uint64_t SynthHashA(uint64_t a) { return SynthMix(a ^ 0x51ed270b27bd1a2bULL); }
+inline uint64_t SynthHashB(uint64_t h, uint64_t b) { return SynthMix(h ^ b); }
+inline uint64_t SynthHashC(uint64_t h, uint64_t c) { return SynthMix(h ^ (c * 0x632be59bd9b4e019ULL)); }
+inline uint64_t SynthHashD(uint64_t h, uint64_t d) { return SynthMix(h ^ (d * 0x85157af5ULL)); }
+inline uint64_t SynthHash(uint64_t a, uint64_t b = 0, uint64_t c = 0, uint64_t d = 0) {
+  return SynthHashD(SynthHashC(SynthHashB(SynthHashA(a), b), c), d);
+}
 double SynthValueNoise(double u, double v, uint64_t seed);  // in [-1, 1]
 double SynthFbm(double u, double v, uint64_t seed, int octaves, double base_freq);
 

@@ -355,10 +355,14 @@ cv::Mat SyntheticSequence::Render(int i) const {
   const double scale = 255.0 * exposure_scale_ * gain / samples;
   cv::Mat img(h, w, CV_8UC1);
   const uint64_t noise_seed = SynthHash(o_.seed, 0x5e5, static_cast<uint64_t>(i));
+  const uint64_t noise_key = SynthHashA(noise_seed);
   auto work = [&](int tid, int nt) {
     for (int y = tid; y < h; y += nt) {
       uint8_t* row = img.ptr<uint8_t>(y);
       for (int x = 0; x < w; ++x) {
+        // Per-pixel hash prefix: SynthHash(noise_seed, x, y, d) == SynthHashD(pixel_key, d).
+        const uint64_t pixel_key =
+            SynthHashC(SynthHashB(noise_key, static_cast<uint64_t>(x)), static_cast<uint64_t>(y));
         double acc = 0;
         if (gain > 0) {
           if (!moving) {
@@ -367,7 +371,7 @@ cv::Mat SyntheticSequence::Render(int i) const {
               acc += RenderRadiance(poses[0], x + j.x(), y + j.y());
             }
           } else {
-            const uint64_t hp = SynthHash(noise_seed, static_cast<uint64_t>(x), static_cast<uint64_t>(y), 7);
+            const uint64_t hp = SynthHashD(pixel_key, 7);
             for (int k = 0; k < samples; ++k) {
               const int phase = static_cast<int>((hp >> (2 * (k % 16))) & 3);
               const Eigen::Vector2d j = offset(static_cast<int>((hp >> 40) + k) % nn);
@@ -377,7 +381,7 @@ cv::Mat SyntheticSequence::Render(int i) const {
         }
         const double v = scale * acc;
         // Read noise + shot noise, Box-Muller from a per-pixel hash.
-        const uint64_t hs = SynthHash(noise_seed, static_cast<uint64_t>(x), static_cast<uint64_t>(y));
+        const uint64_t hs = SynthHashD(pixel_key, 0);
         const double u1 = std::max(1e-12, Unit(hs)), u2 = Unit(SynthHash(hs, 1));
         const double g = std::sqrt(-2 * std::log(u1)) * std::cos(2 * kPi * u2);
         const double sigma = std::sqrt(o_.noise_sigma * o_.noise_sigma + 0.02 * std::max(0.0, v));
