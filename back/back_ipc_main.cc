@@ -39,6 +39,7 @@ struct WindowRecord {
   BackStatus status = BackStatus::kInvalidWindow;
   std::string message;
   int frames = 0, registered = 0;
+  bool retried = false, retry_kept = false;  // lower SIFT threshold tried / kept
   std::vector<int64_t> submap_ids;
   std::vector<std::vector<std::string>> submap_stamps;  // per sent submap: its keyframes' timestamps
   BackStepTimes times;
@@ -67,6 +68,8 @@ nlohmann::ordered_json StatsJson(const Counters& c, uint64_t dropped, bool stopp
                    {"message", w.message},
                    {"frames", w.frames},
                    {"registered", w.registered},
+                   {"retried", w.retried},
+                   {"retry_kept", w.retry_kept},
                    {"submaps", w.submap_ids},
                    {"submap_timestamps", w.submap_stamps},
                    {"seconds",
@@ -257,6 +260,8 @@ int RunBackIpc(const BackIpcRunOptions& o, const std::atomic<bool>* stop) {
     rec.message = r.message;
     rec.frames = r.num_frames;
     rec.registered = r.num_registered;
+    rec.retried = r.retried;
+    rec.retry_kept = r.retry_kept;
     rec.times = r.times;
     c.seconds += r.times.total_s;
     // The builder logs the outcome and warnings; a failure sends nothing.

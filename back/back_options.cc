@@ -15,6 +15,10 @@ bool BackOptions::Check(std::string* why) const {
     return fail("max_num_features must be in [64, 65536]");
   if (!(sift_peak_threshold >= 0.0 && sift_peak_threshold <= 1.0))
     return fail("sift_peak_threshold must be in [0, 1]");
+  if (!(retry_peak_threshold >= 0.0 && retry_peak_threshold <= 1.0))
+    return fail("retry_peak_threshold must be in [0, 1]");
+  if (!(retry_below_registered >= 0.0 && retry_below_registered <= 1.0))
+    return fail("retry_below_registered must be in [0, 1]");
   if (sift_first_octave < -1 || sift_first_octave > 2) return fail("sift_first_octave must be in [-1, 2]");
   if (sift_upsample_below_width < 0) return fail("sift_upsample_below_width must be >= 0");
   if (matcher != "exhaustive" && matcher != "sequential")
@@ -44,6 +48,8 @@ void ReadOptions(ConfigSection& s, BackOptions* o) {
   s.ReadInRange("max_num_features", &o->max_num_features, 64, 65536);
   s.Read("normalize_contrast", &o->normalize_contrast);
   s.ReadInRange("sift_peak_threshold", &o->sift_peak_threshold, 0.0, 1.0);
+  s.ReadInRange("retry_peak_threshold", &o->retry_peak_threshold, 0.0, 1.0);
+  s.ReadInRange("retry_below_registered", &o->retry_below_registered, 0.0, 1.0);
   s.ReadInRange("sift_first_octave", &o->sift_first_octave, -1, 2);
   s.ReadInRange("sift_upsample_below_width", &o->sift_upsample_below_width, 0, 100000);
   if (s.Read("matcher", &o->matcher) && o->matcher != "exhaustive" && o->matcher != "sequential")

@@ -39,6 +39,12 @@ struct BackOptions {
   // COLMAP SiftExtraction.peak_threshold; 0 = COLMAP's default (0.0067).
   // Lower: motion-blurred frames keep enough features (docs/back.md).
   double sift_peak_threshold = 0.004;
+  // When the largest model holds fewer than retry_below_registered of the
+  // window's frames, the window is run again with this peak threshold and
+  // the larger model kept (0 = never). A plain corridor turn: 44/93 frames at
+  // 0.004, 93/93 at 0.0015 (docs/synth.md).
+  double retry_peak_threshold = 0.0015;
+  double retry_below_registered = 0.9;
 
   bool Check(std::string* why = nullptr) const;
   // Resolved workspace root (workspace_dir or the default under $TMPDIR).

@@ -53,6 +53,8 @@ nlohmann::json BackResultSummaryJson(const BackResult& r) {
   j["warnings"] = r.warnings;
   j["num_frames"] = r.num_frames;
   j["num_registered"] = r.num_registered;
+  j["retried"] = r.retried;
+  j["retry_kept"] = r.retry_kept;
   j["seconds"] = {{"undistort_write", r.times.undistort_write_s},
                   {"feature_extraction", r.times.feature_extraction_s},
                   {"matching", r.times.matching_s},

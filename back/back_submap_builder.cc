@@ -156,12 +156,10 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
   const fs::path ws = fs::path(options_.WorkspaceRoot()) /
                       ("window_" + std::to_string(window.id) + "_" + std::to_string(getpid()) +
                        "_" + std::to_string(workspace_counter_++));
-  const fs::path images = ws / "images", sparse = ws / "sparse", db = ws / "database.db",
-                 log = ws / "colmap.log";
+  const fs::path images = ws / "images", log = ws / "colmap.log";
   std::error_code ec;
   fs::remove_all(ws, ec);
   fs::create_directories(images, ec);
-  if (!ec) fs::create_directories(sparse, ec);
   if (ec) return finish(BackStatus::kIoError, "cannot create workspace " + ws.string() + ": " + ec.message());
   WorkspaceGuard guard(ws, options_.keep_workspaces);
   if (options_.keep_workspaces) res.workspace = ws.string();
@@ -191,119 +189,166 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
   // COLMAP puts the top-left pixel's centre at (0.5, 0.5): shift cx, cy.
   const std::string params = Num(c.fx) + "," + Num(c.fy) + "," + Num(c.cx + kColmapPixelOffset) +
                              "," + Num(c.cy + kColmapPixelOffset);
-  struct Step {
-    const char* name;
-    std::vector<std::string> args;
-    double* seconds;
-    double* cpu_seconds;
-  };
-  std::vector<Step> steps;
   const int first_octave =
       window.camera.width < options_.sift_upsample_below_width ? -1 : options_.sift_first_octave;
-  steps.push_back({"feature_extraction",
-                   {"feature_extractor", "--database_path", db.string(), "--image_path",
-                    images.string(), "--ImageReader.camera_model", "PINHOLE",
-                    "--ImageReader.single_camera", "1", "--ImageReader.camera_params", params,
-                    "--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads", threads,
-                    "--SiftExtraction.max_num_features", std::to_string(options_.max_num_features),
-                    "--SiftExtraction.first_octave", std::to_string(first_octave)},
-                   &res.times.feature_extraction_s, &res.times.feature_extraction_cpu_s});
-  if (options_.sift_peak_threshold > 0) {
-    steps.back().args.insert(steps.back().args.end(),
-                             {"--SiftExtraction.peak_threshold", Num(options_.sift_peak_threshold)});
-  }
-  if (options_.matcher == "sequential") {
-    steps.push_back({"matching",
-                     {"sequential_matcher", "--database_path", db.string(),
-                      "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads", threads,
-                      "--SequentialMatching.overlap", std::to_string(options_.sequential_overlap)},
-                     &res.times.matching_s, &res.times.matching_cpu_s});
-  } else {
-    steps.push_back({"matching",
-                     {"exhaustive_matcher", "--database_path", db.string(),
-                      "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads", threads},
-                     &res.times.matching_s, &res.times.matching_cpu_s});
-  }
-  steps.push_back({"mapping",
-                   {"mapper", "--database_path", db.string(), "--image_path", images.string(),
-                    "--output_path", sparse.string(), "--Mapper.num_threads", threads,
-                    "--Mapper.ba_refine_focal_length", "0", "--Mapper.ba_refine_principal_point",
-                    "0", "--Mapper.ba_refine_extra_params", "0", "--Mapper.min_model_size",
-                    std::to_string(options_.min_registered_images)},
-                   &res.times.mapping_s, &res.times.mapping_cpu_s});
-
-  for (Step& step : steps) {
-    RunRequest req;
-    req.argv.push_back(options_.colmap_path);
-    req.argv.insert(req.argv.end(), step.args.begin(), step.args.end());
-    req.log_path = log.string();
-    // glog would also leave a log file per COLMAP run in /tmp, forever.
-    req.env = {"GLOG_logtostderr=1"};
-    req.timeout_s = options_.step_timeout_s;
-    req.low_priority = options_.low_priority;
-    req.cancel = cancel;
-    spdlog::debug("window {}: colmap {}", window.id, step.args[0]);
-    const RunResult r = RunProcess(req);
-    *step.seconds = r.seconds;
-    *step.cpu_seconds = r.cpu_seconds;
-    if (r.status != RunStatus::kOk) {
-      const std::string msg = std::string(step.name) + ": " + r.message;
-      switch (r.status) {
-        case RunStatus::kTimeout: return finish(BackStatus::kTimeout, msg);
-        case RunStatus::kCancelled: return finish(BackStatus::kCancelled, msg);
-        default: return finish(BackStatus::kColmapFailed, msg);
-      }
-    }
-  }
-
-  // Every model folder -> one submap; the largest first.
-  t0 = Clock::now();
   struct Built {
     Submap submap;
     BackSubmapStats stats;
   };
-  std::vector<Built> built;
-  const std::vector<fs::path> models = ModelFolders(sparse);
-  for (const fs::path& dir : models) {
-    ColmapModel model;
-    if (!ReadColmapModelBinary(dir.string(), &model, &why))
-      return finish(BackStatus::kModelError, "reading model: " + why);
-    Built b;
-    if (!ColmapModelToSubmap(model, -1, &b.submap, &b.stats, &why))
-      return finish(BackStatus::kModelError, dir.string() + ": " + why);
-    // The intrinsics were fixed: a change means the flags or the shift are wrong.
-    const CameraIntrinsics& k = b.submap.camera;
-    if (std::abs(k.fx - c.fx) > 1e-6 * c.fx || std::abs(k.fy - c.fy) > 1e-6 * c.fy ||
-        std::abs(k.cx - c.cx) > 1e-6 || std::abs(k.cy - c.cy) > 1e-6 || k.width != c.width ||
-        k.height != c.height) {
-      return finish(BackStatus::kModelError, dir.string() + ": COLMAP changed the fixed intrinsics");
+  struct Attempt {
+    BackStatus status = BackStatus::kOk;
+    std::string message;
+    std::vector<Built> built;  // largest first
+    std::vector<std::string> warnings;
+    size_t models = 0;
+    int largest() const { return built.empty() ? 0 : built.front().stats.registered_images; }
+  };
+  // Extraction, matching, mapping and conversion with one SIFT peak
+  // threshold, in its own database and model folder.
+  auto run_attempt = [&](double peak_threshold, const std::string& tag) {
+    Attempt at;
+    const fs::path db = ws / ("database" + tag + ".db"), sparse = ws / ("sparse" + tag);
+    fs::create_directories(sparse, ec);
+    if (ec) {
+      at.status = BackStatus::kIoError;
+      at.message = "cannot create " + sparse.string() + ": " + ec.message();
+      return at;
     }
-    const int completed = CompleteTracks(&b.submap, options_.track_completion_px);
-    const int weak = DropWeakPoints(&b.submap, options_.min_point_observations);
-    spdlog::info("back: {}: {} observations added by track completion, {} weak points dropped",
-                 dir.filename().string(), completed, weak);
-    b.stats.num_points = static_cast<int>(b.submap.points.size());
-    if (b.stats.registered_images < options_.min_registered_images) {
-      res.warnings.push_back(dir.filename().string() + ": dropped, " +
-                             std::to_string(b.stats.registered_images) + " registered images");
-      continue;
+    struct Step {
+      const char* name;
+      std::vector<std::string> args;
+      double* seconds;
+      double* cpu_seconds;
+    };
+    std::vector<Step> steps;
+    steps.push_back({"feature_extraction",
+                     {"feature_extractor", "--database_path", db.string(), "--image_path",
+                      images.string(), "--ImageReader.camera_model", "PINHOLE",
+                      "--ImageReader.single_camera", "1", "--ImageReader.camera_params", params,
+                      "--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads", threads,
+                      "--SiftExtraction.max_num_features", std::to_string(options_.max_num_features),
+                      "--SiftExtraction.first_octave", std::to_string(first_octave)},
+                     &res.times.feature_extraction_s, &res.times.feature_extraction_cpu_s});
+    if (peak_threshold > 0)
+      steps.back().args.insert(steps.back().args.end(), {"--SiftExtraction.peak_threshold", Num(peak_threshold)});
+    if (options_.matcher == "sequential") {
+      steps.push_back({"matching",
+                       {"sequential_matcher", "--database_path", db.string(),
+                        "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads", threads,
+                        "--SequentialMatching.overlap", std::to_string(options_.sequential_overlap)},
+                       &res.times.matching_s, &res.times.matching_cpu_s});
+    } else {
+      steps.push_back({"matching",
+                       {"exhaustive_matcher", "--database_path", db.string(),
+                        "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads", threads},
+                       &res.times.matching_s, &res.times.matching_cpu_s});
     }
-    built.push_back(std::move(b));
+    steps.push_back({"mapping",
+                     {"mapper", "--database_path", db.string(), "--image_path", images.string(),
+                      "--output_path", sparse.string(), "--Mapper.num_threads", threads,
+                      "--Mapper.ba_refine_focal_length", "0", "--Mapper.ba_refine_principal_point",
+                      "0", "--Mapper.ba_refine_extra_params", "0", "--Mapper.min_model_size",
+                      std::to_string(options_.min_registered_images)},
+                     &res.times.mapping_s, &res.times.mapping_cpu_s});
+
+    for (Step& step : steps) {
+      RunRequest req;
+      req.argv.push_back(options_.colmap_path);
+      req.argv.insert(req.argv.end(), step.args.begin(), step.args.end());
+      req.log_path = log.string();
+      // glog would also leave a log file per COLMAP run in /tmp, forever.
+      req.env = {"GLOG_logtostderr=1"};
+      req.timeout_s = options_.step_timeout_s;
+      req.low_priority = options_.low_priority;
+      req.cancel = cancel;
+      spdlog::debug("window {}: colmap {}", window.id, step.args[0]);
+      const RunResult r = RunProcess(req);
+      *step.seconds += r.seconds;  // a retry adds to the first attempt's time
+      *step.cpu_seconds += r.cpu_seconds;
+      if (r.status != RunStatus::kOk) {
+        at.message = std::string(step.name) + ": " + r.message;
+        switch (r.status) {
+          case RunStatus::kTimeout: at.status = BackStatus::kTimeout; break;
+          case RunStatus::kCancelled: at.status = BackStatus::kCancelled; break;
+          default: at.status = BackStatus::kColmapFailed; break;
+        }
+        return at;
+      }
+    }
+
+    // Every model folder -> one submap; the largest first.
+    const auto t_read = Clock::now();
+    const std::vector<fs::path> models = ModelFolders(sparse);
+    at.models = models.size();
+    for (const fs::path& dir : models) {
+      ColmapModel model;
+      Built b;
+      if (!ReadColmapModelBinary(dir.string(), &model, &why) ||
+          !ColmapModelToSubmap(model, -1, &b.submap, &b.stats, &why)) {
+        at.status = BackStatus::kModelError;
+        at.message = dir.string() + ": " + why;
+        return at;
+      }
+      // The intrinsics were fixed: a change means the flags or the shift are wrong.
+      const CameraIntrinsics& k = b.submap.camera;
+      if (std::abs(k.fx - c.fx) > 1e-6 * c.fx || std::abs(k.fy - c.fy) > 1e-6 * c.fy ||
+          std::abs(k.cx - c.cx) > 1e-6 || std::abs(k.cy - c.cy) > 1e-6 || k.width != c.width ||
+          k.height != c.height) {
+        at.status = BackStatus::kModelError;
+        at.message = dir.string() + ": COLMAP changed the fixed intrinsics";
+        return at;
+      }
+      const int completed = CompleteTracks(&b.submap, options_.track_completion_px);
+      const int weak = DropWeakPoints(&b.submap, options_.min_point_observations);
+      spdlog::info("back: {}: {} observations added by track completion, {} weak points dropped",
+                   dir.filename().string(), completed, weak);
+      b.stats.num_points = static_cast<int>(b.submap.points.size());
+      if (b.stats.registered_images < options_.min_registered_images) {
+        at.warnings.push_back(sparse.filename().string() + "/" + dir.filename().string() + ": dropped, " +
+                              std::to_string(b.stats.registered_images) + " registered images");
+        continue;
+      }
+      at.built.push_back(std::move(b));
+    }
+    std::stable_sort(at.built.begin(), at.built.end(), [](const Built& x, const Built& y) {
+      return x.stats.registered_images > y.stats.registered_images;
+    });
+    res.times.read_convert_s += Since(t_read);
+    return at;
+  };
+
+  Attempt at = run_attempt(options_.sift_peak_threshold, "");
+  if (at.status != BackStatus::kOk) return finish(at.status, at.message);
+  // Texture-poor windows (a plain corridor wall) give SIFT too few features at
+  // the usual threshold: when the largest model misses too many frames, the
+  // whole window is tried again with a lower one and the larger model kept.
+  const int frames = static_cast<int>(window.frames.size());
+  if (options_.retry_peak_threshold > 0 && options_.retry_peak_threshold != options_.sift_peak_threshold &&
+      at.largest() < options_.retry_below_registered * frames) {
+    spdlog::info("window {}: {}/{} frames in the largest model; retrying with SIFT peak threshold {}", window.id,
+                 at.largest(), frames, options_.retry_peak_threshold);
+    Attempt retry = run_attempt(options_.retry_peak_threshold, "_retry");
+    res.retried = true;
+    if (retry.status == BackStatus::kCancelled) return finish(retry.status, retry.message);
+    if (retry.status != BackStatus::kOk) {
+      res.warnings.push_back("retry with a lower SIFT threshold failed: " + retry.message);
+    } else if (retry.largest() > at.largest()) {
+      res.warnings.push_back("first attempt: " + std::to_string(at.largest()) + " frames in the largest model");
+      at = std::move(retry);
+      res.retry_kept = true;
+    }
   }
-  std::stable_sort(built.begin(), built.end(), [](const Built& a, const Built& b) {
-    return a.stats.registered_images > b.stats.registered_images;
-  });
-  for (Built& b : built) {
+  res.warnings.insert(res.warnings.end(), at.warnings.begin(), at.warnings.end());
+  for (Built& b : at.built) {
     b.submap.id = next_submap_id_++;
     res.num_registered += b.stats.registered_images;
     res.submaps.push_back(std::move(b.submap));
     res.stats.push_back(b.stats);
   }
-  res.times.read_convert_s = Since(t0);
   for (const std::string& w : res.warnings) spdlog::info("window {}: {}", window.id, w);
   if (res.submaps.empty()) {
     return finish(BackStatus::kNoModel,
-                  models.empty() ? "mapper produced no model (no initial pair?)"
+                  at.models == 0 ? "mapper produced no model (no initial pair?)"
                                  : "all models smaller than min_registered_images");
   }
   return finish(BackStatus::kOk, "");

@@ -50,6 +50,8 @@ struct BackResult {
   int num_registered = 0;              // over all kept submaps
   BackStepTimes times;
   std::string workspace;               // path when kept, else ""
+  bool retried = false;                // a second attempt with retry_peak_threshold ran
+  bool retry_kept = false;             // ... and its model was larger
   bool ok() const { return status == BackStatus::kOk; }
 };
 

@@ -188,6 +188,78 @@ TEST_F(BackSubmapBuilderTest, ModelsBecomeSubmapsAndArgumentsAreRight) {
   EXPECT_TRUE(fs::exists(fs::path(r.workspace) / "colmap.log"));
 }
 
+// A texture-poor window: the first attempt's largest model misses frames, the
+// retry with a lower SIFT peak threshold (its own database) registers them all.
+TEST_F(BackSubmapBuilderTest, RetryWithLowerPeakThresholdKeepsTheLargerModel) {
+  std::vector<Timestamp> t;
+  for (const auto& f : window_.frames) t.push_back(f.timestamp);
+  const fs::path few = root_ / "few", all = root_ / "all";
+  WriteCannedModel(few / "0", window_.camera, {t[0], t[1], t[2]});
+  WriteCannedModel(all / "0", window_.camera, {t[0], t[1], t[2], t[3], t[4]});
+  options_.colmap_path = FakeColmap("if [ $cmd = mapper ]; then case \"$out\" in *sparse_retry) cp -r " +
+                                    all.string() + "/* $out/;; *) cp -r " + few.string() + "/* $out/;; esac; fi");
+  BackSubmapBuilder b(options_);
+  BackResult r = b.Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  EXPECT_TRUE(r.retried);
+  EXPECT_TRUE(r.retry_kept);
+  ASSERT_EQ(r.submaps.size(), 1u);
+  EXPECT_EQ(r.submaps[0].keyframes.size(), 5u);
+  EXPECT_EQ(r.num_registered, 5);
+  std::string args = Args();
+  EXPECT_NE(args.find("--SiftExtraction.peak_threshold 0.004"), std::string::npos) << args;
+  EXPECT_NE(args.find("--SiftExtraction.peak_threshold 0.0015"), std::string::npos) << args;
+  EXPECT_NE(args.find("database_retry.db"), std::string::npos) << args;
+  EXPECT_TRUE(WorkspaceEmpty());
+
+  // 3 of 5 is enough at retry_below_registered 0.6: no second attempt.
+  fs::remove(root_ / "args.txt");
+  options_.retry_below_registered = 0.6;
+  r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  EXPECT_FALSE(r.retried);
+  EXPECT_EQ(r.submaps[0].keyframes.size(), 3u);
+  EXPECT_EQ(Args().find("database_retry.db"), std::string::npos);
+
+  // Retry off.
+  fs::remove(root_ / "args.txt");
+  options_.retry_below_registered = 0.9;
+  options_.retry_peak_threshold = 0;
+  r = BackSubmapBuilder(options_).Build(window_);
+  EXPECT_FALSE(r.retried);
+  EXPECT_EQ(r.submaps[0].keyframes.size(), 3u);
+  EXPECT_EQ(Args().find("database_retry.db"), std::string::npos);
+}
+
+// The retry is kept only when it is larger; a failing retry leaves the first.
+TEST_F(BackSubmapBuilderTest, FailedOrSmallerRetryKeepsTheFirstModel) {
+  std::vector<Timestamp> t;
+  for (const auto& f : window_.frames) t.push_back(f.timestamp);
+  const fs::path four = root_ / "four", two = root_ / "two";
+  WriteCannedModel(four / "0", window_.camera, {t[0], t[1], t[2], t[3]});
+  WriteCannedModel(two / "0", window_.camera, {t[0], t[1], t[2]});
+  options_.colmap_path = FakeColmap("if [ $cmd = mapper ]; then case \"$out\" in *sparse_retry) cp -r " +
+                                    two.string() + "/* $out/;; *) cp -r " + four.string() + "/* $out/;; esac; fi");
+  BackResult r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  EXPECT_TRUE(r.retried);
+  EXPECT_FALSE(r.retry_kept);
+  EXPECT_EQ(r.submaps[0].keyframes.size(), 4u);
+
+  fs::remove(root_ / "args.txt");
+  options_.colmap_path = FakeColmap("case $(tail -n 1 " + (root_ / "args.txt").string() +
+                                    ") in *database_retry.db*) echo 'retry broke' >&2; exit 3;; esac\n"
+                                    "if [ $cmd = mapper ]; then cp -r " + four.string() + "/* $out/; fi");
+  r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  EXPECT_TRUE(r.retried);
+  EXPECT_EQ(r.submaps[0].keyframes.size(), 4u);
+  bool warned = false;
+  for (const std::string& w : r.warnings) warned |= w.find("retry") != std::string::npos;
+  EXPECT_TRUE(warned);
+  EXPECT_TRUE(WorkspaceEmpty());
+}
+
 TEST_F(BackSubmapBuilderTest, DistortedImagesAreUndistortedBeforeColmap) {
   window_.camera.k1 = -0.3;
   window_.camera.p2 = 0.01;
