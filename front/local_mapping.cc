@@ -114,8 +114,8 @@ void LocalMapper::Process(KeyFrame* kf) {
   if (QueueSize() > 0 && ba_skipped_ < o_.max_ba_skips) {
     ++ba_skipped_;
     ++processed_;
-    spdlog::debug("mapping: kf {} t {} q {} +{} points, behind: BA skipped", kf->id, FormatSeconds(kf->timestamp),
-                  QueueSize(), map_->points.size() - before);
+    spdlog::debug("mapping: kf {} t {} q {} {:+d} points, behind: BA skipped", kf->id, FormatSeconds(kf->timestamp),
+                  QueueSize(), static_cast<int64_t>(map_->points.size()) - static_cast<int64_t>(before));
     return;
   }
   // A forced BA (queue not empty) is not preempted by new keyframes, only
@@ -146,8 +146,9 @@ void LocalMapper::Process(KeyFrame* kf) {
     map_->PurgeCulled();
   }
   ++processed_;
-  spdlog::debug("mapping: kf {} t {} q {} +{} points{}, cpu {:.1f} ms (triangulate {:.1f}, fuse {:.1f}, BA {:.1f} with {} kfs {} fixed {} obs)",
-                kf->id, FormatSeconds(kf->timestamp), QueueSize(), map_->points.size() - before, forced ? " (forced BA)" : "", CpuMs() - c0, c_tri, c_fuse, c_ba, pb.local.size(), pb.fixed.size(), pb.obs.size());
+  spdlog::debug("mapping: kf {} t {} q {} {:+d} points{}, cpu {:.1f} ms (triangulate {:.1f}, fuse {:.1f}, BA {:.1f} with {} kfs {} fixed {} obs)",
+                kf->id, FormatSeconds(kf->timestamp), QueueSize(),
+                static_cast<int64_t>(map_->points.size()) - static_cast<int64_t>(before), forced ? " (forced BA)" : "", CpuMs() - c0, c_tri, c_fuse, c_ba, pb.local.size(), pb.fixed.size(), pb.obs.size());
 }
 
 void LocalMapper::CullPoints(KeyFrame* kf) {
