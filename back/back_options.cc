@@ -28,6 +28,8 @@ bool BackOptions::Check(std::string* why) const {
   if (min_registered_images < 2) return fail("min_registered_images must be >= 2");
   if (min_point_observations < 2) return fail("min_point_observations must be >= 2");
   if (!(track_completion_px >= 0 && track_completion_px <= 20)) return fail("track_completion_px must be in [0, 20]");
+  if (orb_features != 0 && (orb_features < 50 || orb_features > 20000))
+    return fail("orb_features must be 0 (off) or in [50, 20000]");
   if (max_queue_windows < 1) return fail("max_queue_windows must be >= 1");
   return true;
 }
@@ -59,6 +61,7 @@ void ReadOptions(ConfigSection& s, BackOptions* o) {
   s.ReadInRange("min_registered_images", &o->min_registered_images, 2, 100000);
   s.ReadInRange("min_point_observations", &o->min_point_observations, 2, 100000);
   s.ReadInRange("track_completion_px", &o->track_completion_px, 0.0, 20.0);
+  s.ReadInRange("orb_features", &o->orb_features, 0, 20000);
   s.ReadInRange("max_queue_windows", &o->max_queue_windows, 1, 1000);
   s.Read("low_priority", &o->low_priority);
   // Cross-field checks: callers run CheckOptions(o, root, "back").

@@ -29,8 +29,15 @@ struct BackOptions {
   // free SIFT keypoint within this radius of a point's projection becomes an
   // observation. The pairwise matcher misses many on dark or noisy frames,
   // leaving short tracks that make every keyframe look necessary to
-  // post-culling. 0 = off.
-  double track_completion_px = 2.0;
+  // post-culling. 0 = off. (2 px culled 42 % of the dark demo's back
+  // keyframes, 3 px with the manager's front-point search 53 %; merges and
+  // ATE the same, docs/manager.md.)
+  double track_completion_px = 3.0;
+  // ORB keypoints (with descriptors, no map point) added to every back
+  // keyframe, detected like the front's: the manager finds front map points
+  // in back keyframes with them, so that post-culling sees which back
+  // keyframes only repeat what the front mapped. 0 = off.
+  int orb_features = 1000;
   int max_queue_windows = 2;           // windows waiting; the oldest is dropped beyond it
   bool low_priority = true;            // SCHED_IDLE (or nice 19) for rumi-back and COLMAP
   // Dark or washed-out frames (the ones the front loses) give SIFT too few

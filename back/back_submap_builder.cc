@@ -8,7 +8,9 @@
 #include <cmath>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
+#include <unordered_map>
 
+#include "back/keyframe_orb.h"
 #include "back/process_runner.h"
 #include "common/camera.h"
 #include "common/logging.h"
@@ -166,12 +168,14 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
 
   // Undistorted images named by timestamp: name order = time order.
   auto t0 = Clock::now();
+  std::unordered_map<Timestamp, cv::Mat> colmap_images;  // for the ORB keypoints
   {
     const bool undistort = HasDistortion(window.camera);
     PinholeCamera camera(window.camera);
     for (const WindowFrame& f : window.frames) {
       cv::Mat img = undistort ? camera.UndistortImage(f.image) : f.image;
       if (options_.normalize_contrast) img = StretchContrast(img);
+      if (options_.orb_features > 0) colmap_images[f.timestamp] = img;
       const fs::path p = images / ColmapImageName(f.timestamp);
       bool written = false;
       try {
@@ -339,6 +343,19 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
     }
   }
   res.warnings.insert(res.warnings.end(), at.warnings.begin(), at.warnings.end());
+  if (options_.orb_features > 0) {
+    OrbExtractorOptions oo;
+    oo.num_features = options_.orb_features;
+    OrbExtractor orb(oo);
+    for (Built& b : at.built) {
+      int added = 0;
+      for (Keyframe& kf : b.submap.keyframes) {
+        const auto it = colmap_images.find(kf.timestamp);
+        if (it != colmap_images.end()) added += AddOrbKeypoints(it->second, &orb, &kf);
+      }
+      spdlog::debug("window {}: {} ORB keypoints on {} keyframes", window.id, added, b.submap.keyframes.size());
+    }
+  }
   for (Built& b : at.built) {
     b.submap.id = next_submap_id_++;
     res.num_registered += b.stats.registered_images;

@@ -13,6 +13,8 @@
 #include <iterator>
 #include <sstream>
 
+#include "common/orb_extractor.h"
+
 namespace fs = std::filesystem;
 
 namespace rumi {
@@ -164,6 +166,13 @@ TEST_F(BackSubmapBuilderTest, ModelsBecomeSubmapsAndArgumentsAreRight) {
   EXPECT_DOUBLE_EQ(r.submaps[0].camera.cx, 31.5);
   EXPECT_DOUBLE_EQ(r.submaps[0].camera.cy, 23.25);
   EXPECT_FLOAT_EQ(r.submaps[0].keyframes[0].keypoints[0].x(), 100.0f);
+  // ORB corners follow the SIFT keypoints (none on these flat images): one
+  // descriptor row per keypoint, all zeros for the SIFT ones.
+  for (const Submap& m : r.submaps)
+    for (const Keyframe& kf : m.keyframes) {
+      ASSERT_EQ(kf.descriptors.rows, int(kf.keypoints.size()));
+      for (int i = 0; i < kf.descriptors.rows; ++i) EXPECT_FALSE(HasDescriptor(kf.descriptors.ptr<uint8_t>(i)));
+    }
 
   // Images handed to COLMAP are named by zero-padded timestamps.
   std::ifstream names(root_ / "names.txt");
@@ -326,6 +335,12 @@ TEST(BackOptionsTest, ReadAndCheck) {
   std::string why;
   EXPECT_FALSE(o3.Check(&why));
   EXPECT_NE(why.find("min_registered_images"), std::string::npos);
+  BackOptions o4;
+  o4.orb_features = 10;
+  EXPECT_FALSE(o4.Check(&why));
+  EXPECT_NE(why.find("orb_features"), std::string::npos);
+  o4.orb_features = 0;  // off
+  EXPECT_TRUE(o4.Check());
 }
 
 }  // namespace

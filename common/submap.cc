@@ -6,6 +6,8 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "common/orb_extractor.h"
+
 namespace rumi {
 
 const char* ToString(TrackingState s) {
@@ -46,8 +48,13 @@ int CompleteTracks(Submap* submap, double max_px, double ratio) {
   for (size_t k = 0; k < submap->keyframes.size(); ++k) {
     const Keyframe& kf = submap->keyframes[k];
     kf_index[kf.id] = k;
+    // Keypoints with a descriptor are ORB corners added for the manager
+    // (back/keyframe_orb.h), not features the point's track was built from.
+    const bool described = kf.descriptors.type() == CV_8U && kf.descriptors.cols == 32 &&
+                           kf.descriptors.rows == static_cast<int>(kf.keypoints.size());
     for (size_t i = 0; i < kf.keypoints.size() && i < kf.point_ids.size(); ++i)
-      if (kf.point_ids[i] < 0) free[k][cell_of(kf.keypoints[i].x(), kf.keypoints[i].y())].push_back(static_cast<int>(i));
+      if (kf.point_ids[i] < 0 && !(described && HasDescriptor(kf.descriptors.ptr<uint8_t>(static_cast<int>(i)))))
+        free[k][cell_of(kf.keypoints[i].x(), kf.keypoints[i].y())].push_back(static_cast<int>(i));
   }
   struct Claim {
     double d2;

@@ -80,7 +80,8 @@ int DropWeakPoints(Submap* submap, int min_observations);
 // where it projects (in front of the camera, inside the image) within
 // max_px of a keypoint that has no point yet, and the nearest such keypoint is
 // closer than `ratio` times the second nearest within max_px (else it is
-// ambiguous); the closest claim wins. SfM leaves such observations out when
+// ambiguous); the closest claim wins. Keypoints with a descriptor row (ORB
+// corners of back keyframes) are not used. SfM leaves such observations out when
 // the pairwise matcher missed them (dark, noisy frames), which makes every
 // track short. Returns the observations added.
 int CompleteTracks(Submap* submap, double max_px, double ratio = 0.7);

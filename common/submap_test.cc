@@ -140,5 +140,20 @@ TEST(Submap, CompleteTracksSkipsAmbiguousKeypoints) {
   EXPECT_EQ(s.keyframes[1].point_ids, (std::vector<int64_t>{-1, 7}));
 }
 
+TEST(Submap, CompleteTracksIgnoresOrbKeypoints) {
+  // Keyframe 1's keypoints both carry ORB descriptors (added for the
+  // manager): neither is a SIFT feature of the track, so nothing is claimed.
+  Submap s = TwoCandidates(1.0f, 2.0f);
+  s.keyframes[0].descriptors = cv::Mat::zeros(2, 32, CV_8U);
+  s.keyframes[1].descriptors = cv::Mat::zeros(2, 32, CV_8U);
+  s.keyframes[1].descriptors.at<uint8_t>(0, 3) = 0x10;
+  s.keyframes[1].descriptors.at<uint8_t>(1, 9) = 0x01;
+  EXPECT_EQ(CompleteTracks(&s, 3.0), 0);
+  // All-zero rows mean "no descriptor": the SIFT keypoint is used again.
+  s.keyframes[1].descriptors.at<uint8_t>(0, 3) = 0;
+  EXPECT_EQ(CompleteTracks(&s, 3.0), 1);
+  EXPECT_EQ(s.keyframes[1].point_ids, (std::vector<int64_t>{7, -1}));
+}
+
 }  // namespace
 }  // namespace rumi

@@ -12,7 +12,7 @@
 #include "front/local_mapping.h"
 #include "front/matcher.h"
 #include "front/optimizer.h"
-#include "front/orb_extractor.h"
+#include "common/orb_extractor.h"
 
 namespace rumi {
 namespace {

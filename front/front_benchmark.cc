@@ -8,7 +8,7 @@
 
 #include "front/map.h"
 #include "front/optimizer.h"
-#include "front/orb_extractor.h"
+#include "common/orb_extractor.h"
 
 namespace rumi {
 namespace {

@@ -3,19 +3,10 @@
 #include <string>
 
 #include "common/config.h"
+#include "common/orb_extractor.h"
 #include "front/hierarchical.h"
 
 namespace rumi {
-
-struct OrbExtractorOptions {
-  int num_features = 0;       // per frame; 0: auto (1000 up to 640x480, 2000 above)
-  int num_levels = 8;
-  double scale_factor = 1.2;
-  int fast_threshold = 20;    // preferred corner strength
-  int fast_min_threshold = 7; // fallback in low-texture cells
-  int cell_size = 32;         // grid bucket side in pixels (level 0)
-  bool Check(std::string* why = nullptr) const;
-};
 
 struct FrontOptions {
   OrbExtractorOptions orb;

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "front/orb_extractor.h"
+#include "common/orb_extractor.h"
 
 namespace rumi {
 

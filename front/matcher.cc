@@ -4,7 +4,7 @@
 #include <array>
 #include <cmath>
 
-#include "front/orb_extractor.h"
+#include "common/orb_extractor.h"
 
 namespace rumi {
 namespace {

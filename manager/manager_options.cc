@@ -31,6 +31,11 @@ bool ManagerOptions::Check(std::string* why) const {
   if (!(culling_redundant_ratio > 0 && culling_redundant_ratio <= 1))
     return Fail(why, "culling_redundant_ratio must be in (0, 1]");
   if (culling_min_observers < 1) return Fail(why, "culling_min_observers must be >= 1");
+  if (culling_octave_tolerance < 0 || culling_octave_tolerance > 31)
+    return Fail(why, "culling_octave_tolerance must be in [0, 31]");
+  if (!(front_search_px >= 0 && front_search_px <= 50)) return Fail(why, "front_search_px must be in [0, 50]");
+  if (front_search_max_hamming < 0 || front_search_max_hamming > 256)
+    return Fail(why, "front_search_max_hamming must be in [0, 256]");
   return true;
 }
 
@@ -58,6 +63,9 @@ void ReadOptions(ConfigSection& s, ManagerOptions* o) {
   s.Read("welding_ba", &o->welding_ba);
   s.ReadInRange("culling_redundant_ratio", &o->culling_redundant_ratio, 1e-3, 1.0);
   s.ReadInRange("culling_min_observers", &o->culling_min_observers, 1, 1000);
+  s.ReadInRange("culling_octave_tolerance", &o->culling_octave_tolerance, 0, 31);
+  s.ReadInRange("front_search_px", &o->front_search_px, 0.0, 50.0);
+  s.ReadInRange("front_search_max_hamming", &o->front_search_max_hamming, 0, 256);
   std::string why;
   if (!o->Check(&why)) throw ConfigError(s.file() + ": section 'manager': " + why);
 }

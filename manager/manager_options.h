@@ -55,6 +55,16 @@ struct ManagerOptions {
   // culling_min_observers other keyframes at the same or a finer octave.
   double culling_redundant_ratio = 0.9;
   int culling_min_observers = 3;
+  // Observers up to this many pyramid levels coarser still count: ORB-SLAM's
+  // code (and rumi's front, local_mapping.cc) allow one level of jitter in
+  // the level a corner is detected at. Back SIFT observations are all level 0.
+  int culling_octave_tolerance = 1;
+  // Before culling, front map points are searched in back keyframes (their
+  // ORB keypoints, manager/front_point_search.h) within this radius times
+  // 1.2^(predicted level), accepting descriptor distances up to
+  // front_search_max_hamming (ORB-SLAM's fusion: 3 px, 50). 0 = off.
+  double front_search_px = 3.0;
+  int front_search_max_hamming = 50;
 
   bool Check(std::string* why = nullptr) const;
 };

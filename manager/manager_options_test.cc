@@ -13,6 +13,9 @@ TEST(ManagerOptions, DefaultsFollowThePaper) {
   EXPECT_EQ(o.min_inlier_ratio, 0.1);
   EXPECT_EQ(o.culling_redundant_ratio, 0.9);
   EXPECT_EQ(o.culling_min_observers, 3);
+  EXPECT_EQ(o.culling_octave_tolerance, 1);   // ORB-SLAM's KeyFrameCulling
+  EXPECT_EQ(o.front_search_px, 3.0);          // ORB-SLAM's Fuse radius ...
+  EXPECT_EQ(o.front_search_max_hamming, 50);  // ... and TH_LOW
   EXPECT_TRUE(o.pair_tracked_frames);
   EXPECT_EQ(o.pair_ratio, 0.7);
 }
@@ -54,6 +57,9 @@ TEST(ManagerOptions, RejectsBadValues) {
   EXPECT_THROW(bad("pair_ratio: 0"), ConfigError);
   EXPECT_THROW(bad("pair_neighbour_keyframes: 0"), ConfigError);
   EXPECT_THROW(bad("serch_n: 3"), ConfigError);  // typo: unknown key
+  EXPECT_THROW(bad("front_search_px: -1"), ConfigError);
+  EXPECT_THROW(bad("front_search_max_hamming: 300"), ConfigError);
+  EXPECT_THROW(bad("culling_octave_tolerance: -1"), ConfigError);
   try {
     bad("match_radius_px: -1");
     FAIL();

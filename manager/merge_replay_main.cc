@@ -87,10 +87,11 @@ int Main(int argc, char** argv) {
   if (!no_culling) {
     const CullingReport c = CullRedundantKeyframes(&map, config.manager);
     std::printf("post-culling: keyframes %d -> %d (back %d, front %d culled); back keyframes examined %d, "
-                "median share of points seen by >= %d others %.2f (needs %.2f)\n",
+                "median share of points seen by >= %d others %.2f (needs %.2f); %d front points found in back "
+                "keyframes\n",
                 c.keyframes_before, c.keyframes_after, c.culled_back, c.culled_front, c.back_examined,
                 config.manager.culling_min_observers, c.back_redundant_share_median,
-                config.manager.culling_redundant_ratio);
+                config.manager.culling_redundant_ratio, c.front_points_found);
   }
   const int root = map.size() ? map.LargestComponent() : -1;
   const auto traj = root >= 0 ? ComputeGlobalTrajectory(map, root) : std::vector<GlobalPose>();

@@ -6,6 +6,7 @@
 #include <unordered_set>
 
 #include "common/logging.h"
+#include "manager/front_point_search.h"
 #include "manager/submap_index.h"
 
 namespace rumi {
@@ -66,6 +67,16 @@ CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& optio
       }
     }
   }
+  // Front points found in back keyframes: more observers of those points, and
+  // more points of those keyframes.
+  std::map<std::pair<int, int64_t>, std::vector<std::pair<int, uint8_t>>> extra;  // keyframe -> (cluster, octave)
+  const std::vector<CrossObservation> cross = SearchFrontPoints(*map, options);
+  rep.front_points_found = int(cross.size());
+  for (const CrossObservation& x : cross) {
+    const int c = clusters.Id(x.front, x.point_id);
+    observers[c].push_back({x.back, x.keyframe_id, x.octave});
+    extra[{x.back, x.keyframe_id}].push_back({c, x.octave});
+  }
   // Clusters are final now; resolve observer lists under their roots.
   std::unordered_map<int, std::vector<Observer>> by_root;
   for (auto& [c, obs] : observers) {
@@ -84,16 +95,27 @@ CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& optio
       if ((m.source == SubmapSource::kBack) != back_pass) continue;
       for (const Keyframe& kf : m.keyframes) {
         if (alive[s] <= 1) break;  // a submap keeps at least one keyframe
-        int with_point = 0, redundant = 0;
+        // The keyframe's points as (cluster root, octave), each cluster once.
+        std::vector<std::pair<int, uint8_t>> points;
+        std::unordered_set<int> listed;
         for (size_t i = 0; i < kf.point_ids.size(); ++i) {
           if (kf.point_ids[i] < 0 || idx[s].Point(kf.point_ids[i]) < 0) continue;
+          const int root = clusters.Root(clusters.Id(s, kf.point_ids[i]));
+          if (listed.insert(root).second) points.push_back({root, i < kf.octaves.size() ? kf.octaves[i] : 0});
+        }
+        const auto ex = extra.find({s, kf.id});
+        if (ex != extra.end())
+          for (const auto& [c, oct] : ex->second)
+            if (listed.insert(clusters.Root(c)).second) points.push_back({clusters.Root(c), oct});
+        int with_point = 0, redundant = 0;
+        for (const auto& [root, oct] : points) {
           ++with_point;
-          const uint8_t oct = i < kf.octaves.size() ? kf.octaves[i] : 0;
-          const auto it = by_root.find(clusters.Id(s, kf.point_ids[i]));
+          const auto it = by_root.find(root);
           if (it == by_root.end()) continue;
           std::unordered_set<int64_t> seen;  // distinct other keyframes
           for (const Observer& o : it->second) {
-            if ((o.submap == s && o.keyframe_id == kf.id) || o.octave > oct || is_culled(o.submap, o.keyframe_id))
+            if ((o.submap == s && o.keyframe_id == kf.id) || o.octave > oct + options.culling_octave_tolerance ||
+                is_culled(o.submap, o.keyframe_id))
               continue;
             seen.insert((int64_t(o.submap) << 40) ^ o.keyframe_id);
             if (int(seen.size()) >= options.culling_min_observers) break;
@@ -166,9 +188,10 @@ CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& optio
                                return after[f.dup].Point(f.dup_point) < 0 || after[f.kept].Point(f.kept_point) < 0;
                              }),
               fused.end());
-  spdlog::info("post-culling: saved keyframes {} -> {} ({} back, {} front culled), points {} -> {}",
+  spdlog::info("post-culling: saved keyframes {} -> {} ({} back, {} front culled), points {} -> {}, {} front "
+               "points found in back keyframes",
                rep.keyframes_before, rep.keyframes_after, rep.culled_back, rep.culled_front, rep.points_before,
-               rep.points_after);
+               rep.points_after, rep.front_points_found);
   return rep;
 }
 

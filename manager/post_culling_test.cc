@@ -75,21 +75,32 @@ TEST(PostCulling, PointsOnlyCulledKeyframesSupportedAreRemoved) {
   EXPECT_EQ(r.points_after, 100);
 }
 
-TEST(PostCulling, OctaveRule) {
-  // kf 0 sees its points at octave 0, the others only coarser (octave 1):
-  // not redundant. kf 4 sees them at octave 2: the others are finer.
+// Keyframe ids left after culling five keyframes that see the same 50 points:
+// kf 0 at octave 0, kf 1-3 at octave 1, kf 4 at octave 2.
+std::vector<int64_t> OctaveScenario(int tolerance) {
   Submap s = Keyframes(SubmapSource::kBack, 5);
   Observe(&s, 0, 0, 50, 0);
   for (int k = 1; k < 4; ++k) Observe(&s, k, 0, 50, 1);
   Observe(&s, 4, 0, 50, 2);
   GlobalMap map;
   map.AddSubmap(s);
-  CullRedundantKeyframes(&map, ManagerOptions());
+  ManagerOptions o;
+  o.culling_octave_tolerance = tolerance;
+  CullRedundantKeyframes(&map, o);
   std::vector<int64_t> ids;
   for (const auto& kf : map.submap(0).keyframes) ids.push_back(kf.id);
-  // 0 kept (finer than all); 1 culled (0, 2, 3 at <= 1); then 2, 3 lack a third
-  // observer at <= 1; 4 sees 0, 2, 3 at <= 2: culled.
-  EXPECT_EQ(ids, (std::vector<int64_t>{0, 2, 3}));
+  return ids;
+}
+
+TEST(PostCulling, OctaveRule) {
+  // Strict: 0 kept (finer than all); 1 culled (0, 2, 3 at <= 1); then 2, 3
+  // lack a third observer at <= 1; 4 sees 0, 2, 3 at <= 2: culled.
+  EXPECT_EQ(OctaveScenario(0), (std::vector<int64_t>{0, 2, 3}));
+  // One level of tolerance (ORB-SLAM's code, the default): 0 sees 1, 2, 3 at
+  // <= 1: culled; 1 sees 2, 3, 4 at <= 2: culled; 2, 3 and 4 are left with
+  // two others each.
+  EXPECT_EQ(ManagerOptions().culling_octave_tolerance, 1);
+  EXPECT_EQ(OctaveScenario(1), (std::vector<int64_t>{2, 3, 4}));
 }
 
 TEST(PostCulling, MergedScenarioCullsBackFirstAndKeepsTrajectory) {

@@ -1,4 +1,4 @@
-#include "front/orb_extractor.h"
+#include "common/orb_extractor.h"
 
 #include <algorithm>
 #include <cmath>

@@ -2,15 +2,26 @@
 // ORB features on a scale pyramid, spread over a grid: per level, FAST corners
 // are bucketed into cells and the strongest of each cell kept (strong corners
 // first, weak ones fill low-texture cells), so that the whole image is covered.
+// Shared by the front (tracking) and the back (ORB keypoints on back keyframes,
+// so that the manager can find front map points in them).
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
 #include <cstdint>
 #include <cstring>
+#include <string>
 #include <vector>
 
-#include "front/front_options.h"
-
 namespace rumi {
+
+struct OrbExtractorOptions {
+  int num_features = 0;       // per frame; 0: auto (1000 up to 640x480, 2000 above)
+  int num_levels = 8;
+  double scale_factor = 1.2;
+  int fast_threshold = 20;    // preferred corner strength
+  int fast_min_threshold = 7; // fallback in low-texture cells
+  int cell_size = 32;         // grid bucket side in pixels (level 0)
+  bool Check(std::string* why = nullptr) const;
+};
 
 class OrbExtractor {
  public:
@@ -39,6 +50,14 @@ inline int DescriptorDistance(const uint8_t* a, const uint8_t* b) {
   std::memcpy(y, b, 32);
   return __builtin_popcountll(x[0] ^ y[0]) + __builtin_popcountll(x[1] ^ y[1]) +
          __builtin_popcountll(x[2] ^ y[2]) + __builtin_popcountll(x[3] ^ y[3]);
+}
+
+// False for an all-zero row: keypoints without a descriptor (SIFT keypoints
+// of back keyframes, back/keyframe_orb.h).
+inline bool HasDescriptor(const uint8_t* d) {
+  uint64_t x[4];
+  std::memcpy(x, d, 32);
+  return (x[0] | x[1] | x[2] | x[3]) != 0;
 }
 
 }  // namespace rumi
