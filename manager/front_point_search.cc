@@ -32,6 +32,9 @@ struct KeypointGrid {
   }
 };
 
+// Octaves may be absent (a valid submap): level 0 then.
+int Octave(const Keyframe& kf, int kp) { return kp < int(kf.octaves.size()) ? kf.octaves[kp] : 0; }
+
 const uint8_t* PointDescriptor(const Submap& s, const MapPoint& p,
                                const std::unordered_map<int64_t, int>& kf_index) {
   if (p.descriptor.type() == CV_8U && p.descriptor.cols == 32 && p.descriptor.rows >= 1)
@@ -117,7 +120,7 @@ std::vector<CrossObservation> SearchFrontPoints(const GlobalMap& map, const Mana
           for (int cy = y0; cy <= y1; ++cy) {
             for (int cx = x0; cx <= x1; ++cx) {
               for (int kp : g.cells[size_t(cy) * g.cols + cx]) {
-                const int level = kf.octaves[kp];
+                const int level = Octave(kf, kp);
                 if (level < pred - 1 || level > pred) continue;
                 const double du = kf.keypoints[kp].x() - u, dv = kf.keypoints[kp].y() - v;
                 if (du * du + dv * dv > r * r) continue;
@@ -131,7 +134,7 @@ std::vector<CrossObservation> SearchFrontPoints(const GlobalMap& map, const Mana
           if (it == claims.end() || best < it->second.first) claims[best_kp] = {best, F.points[i].id};
         }
         for (const auto& [kp, claim] : claims)
-          out.push_back({b, kf.id, kp, kf.octaves[kp], f, claim.second});
+          out.push_back({b, kf.id, kp, uint8_t(Octave(kf, kp)), f, claim.second});
       }
     }
   }

@@ -154,6 +154,17 @@ TEST(FrontPointSearch, RejectsFarDescriptorsWrongLevelsAndUnmergedSubmaps) {
   EXPECT_TRUE(SearchFrontPoints(MakeScene(SceneOptions()).map, disabled).empty());
 }
 
+TEST(FrontPointSearch, KeyframesWithoutOctavesOrDescriptorsAreSafe) {
+  // Both are optional in a valid submap: no octaves means level 0; descriptor
+  // rows that do not describe every keypoint mean no ORB keypoints.
+  Scene sc = MakeScene(SceneOptions());
+  for (Keyframe& kf : sc.map.submap(sc.back).keyframes) kf.octaves.clear();
+  for (Keyframe& kf : sc.map.submap(sc.front).keyframes) kf.octaves.clear();
+  EXPECT_EQ(SearchFrontPoints(sc.map, ManagerOptions()).size(), 240u);
+  for (Keyframe& kf : sc.map.submap(sc.back).keyframes) kf.descriptors = cv::Mat();
+  EXPECT_TRUE(SearchFrontPoints(sc.map, ManagerOptions()).empty());
+}
+
 TEST(FrontPointSearch, MakesBackKeyframesThatRepeatTheFrontRedundant) {
   // Each back keyframe: 10 own points seen by the 2 back keyframes only, and
   // 120 front points seen by 3 front keyframes: 120/130 >= 90 % redundant once
