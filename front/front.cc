@@ -271,7 +271,8 @@ void Front::Initialize() {
     idx.push_back({static_cast<int>(i), m12[i]});
   }
   TwoViewOptions tvo;
-  tvo.min_triangulated = options_.init_min_triangulated;
+  const int min_points = submap_id_ > 0 ? options_.reinit_min_triangulated : options_.init_min_triangulated;
+  tvo.min_triangulated = min_points;
   tvo.min_parallax_deg = options_.init_min_parallax_deg;
   TwoViewResult r;
   if (!ReconstructTwoView(p1, p2, cam_.K(), tvo, &r)) return;
@@ -305,7 +306,7 @@ void Front::Initialize() {
   GlobalBa(map_.get(), cam_, 20);
   const double median = kf0->MedianDepth();
   const int tracked = kf1->TrackedPoints(1);
-  if (!(median > 0) || tracked < options_.init_min_triangulated) {
+  if (!(median > 0) || tracked < min_points) {
     spdlog::debug("front: initial map rejected (median depth {}, {} points)", median, tracked);
     for (auto& [id, p] : map_->points) Map::SetBad(p.get());
     map_->keyframes.clear();

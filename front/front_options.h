@@ -14,6 +14,12 @@ struct FrontOptions {
   double init_search_radius_frac = 0.12;  // window radius / image width
   int init_min_matches = 100;
   int init_min_triangulated = 50;
+  // A re-initialisation (any submap after the first) happens right where
+  // tracking failed (fast turn, blur, low texture): it needs more points.
+  // Re-inits over 1 frame with 105 and 180 points lost their scale in the
+  // turn that followed (generated dark seed 1, weak seed 2); the ones a few
+  // frames later with 356-394 points did not (docs/front.md).
+  int reinit_min_triangulated = 200;
   double init_min_parallax_deg = 1.0;
   int init_max_frames = 30;               // ref frame replaced after this many tries
   // Tracking.

@@ -144,6 +144,12 @@ TEST(Front, OptionsFromConfig) {
   EXPECT_NE(fails("front: {orb: {scale_factor: 3}}").find("scale_factor"), std::string::npos);
   EXPECT_NE(fails("front: {min_tracked_inlers: 40}").find("min_tracked_inlers"), std::string::npos);
   EXPECT_NE(fails("front: {hierarchical: maybe}").find("hierarchical"), std::string::npos);
+  FrontOptions reinit;
+  EXPECT_EQ(reinit.reinit_min_triangulated, 200);
+  reinit.reinit_min_triangulated = reinit.init_min_triangulated - 1;  // looser than a first init
+  std::string why;
+  EXPECT_FALSE(reinit.Check(&why));
+  EXPECT_NE(why.find("reinit_min_triangulated"), std::string::npos);
   FrontOptions bad;
   bad.kf_tracked_ratio = 0;
   EXPECT_FALSE(bad.Check());
