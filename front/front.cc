@@ -273,7 +273,7 @@ void Front::Initialize() {
   TwoViewOptions tvo;
   const int min_points = submap_id_ > 0 ? options_.reinit_min_triangulated : options_.init_min_triangulated;
   tvo.min_triangulated = min_points;
-  tvo.min_parallax_deg = options_.init_min_parallax_deg;
+  tvo.min_parallax_deg = submap_id_ > 0 ? options_.reinit_min_parallax_deg : options_.init_min_parallax_deg;
   TwoViewResult r;
   if (!ReconstructTwoView(p1, p2, cam_.K(), tvo, &r)) return;
 

@@ -11,7 +11,8 @@ bool FrontOptions::Check(std::string* why) const {
   if (init_min_triangulated < 8) return fail("init_min_triangulated must be >= 8");
   if (reinit_min_triangulated < init_min_triangulated)
     return fail("reinit_min_triangulated must be >= init_min_triangulated");
-  if (!(init_min_parallax_deg > 0)) return fail("init_min_parallax_deg must be > 0");
+  if (!(init_min_parallax_deg > 0) || !(reinit_min_parallax_deg > 0))
+    return fail("init_min_parallax_deg and reinit_min_parallax_deg must be > 0");
   if (init_max_frames < 1) return fail("init_max_frames must be >= 1");
   if (!(motion_search_radius > 0) || !(local_search_radius > 0)) return fail("search radii must be > 0");
   if (min_tracked_inliers < 10) return fail("min_tracked_inliers must be >= 10");
@@ -49,6 +50,7 @@ void ReadOptions(ConfigSection& s, FrontOptions* o) {
   s.ReadInRange("init_min_triangulated", &o->init_min_triangulated, 8, 100000);
   s.ReadInRange("reinit_min_triangulated", &o->reinit_min_triangulated, 8, 100000);
   s.ReadInRange("init_min_parallax_deg", &o->init_min_parallax_deg, 0.01, 90.0);
+  s.ReadInRange("reinit_min_parallax_deg", &o->reinit_min_parallax_deg, 0.01, 90.0);
   s.ReadInRange("init_max_frames", &o->init_max_frames, 1, 100000);
   s.ReadInRange("motion_search_radius", &o->motion_search_radius, 0.5, 500.0);
   s.ReadInRange("local_search_radius", &o->local_search_radius, 0.1, 100.0);

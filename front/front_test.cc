@@ -150,6 +150,12 @@ TEST(Front, OptionsFromConfig) {
   std::string why;
   EXPECT_FALSE(reinit.Check(&why));
   EXPECT_NE(why.find("reinit_min_triangulated"), std::string::npos);
+  FrontOptions parallax;
+  EXPECT_GT(parallax.init_min_parallax_deg, parallax.reinit_min_parallax_deg);  // a first init can wait
+  parallax.reinit_min_parallax_deg = 0;
+  EXPECT_FALSE(parallax.Check(&why));
+  EXPECT_NE(why.find("reinit_min_parallax_deg"), std::string::npos);
+  EXPECT_NE(fails("front: {reinit_min_parallax_deg: 0}").find("reinit_min_parallax_deg"), std::string::npos);
   FrontOptions bad;
   bad.kf_tracked_ratio = 0;
   EXPECT_FALSE(bad.Check());
