@@ -13,6 +13,7 @@ bool SamplerOptions::Check(std::string* why) const {
   if (len < 0) return fail("len must be >= 0");
   if (th_s3 < 0) return fail("th_s3 must be >= 0");
   if (max_s2 < 2) return fail("max_s2 must be >= 2");
+  if (startup_frames < 0) return fail("startup_frames must be >= 0");
   return true;
 }
 
@@ -27,6 +28,7 @@ void ReadOptions(ConfigSection& s, SamplerOptions* o) {
     else s.Fail("th_s3_unit", "must be 'keyframes' or 'frames', not '" + unit + "'");
   }
   s.ReadInRange("max_s2", &o->max_s2, 2, 100000);
+  s.ReadInRange("startup_frames", &o->startup_frames, 0, 1000000);
   s.Read("clone_images", &o->clone_images);
   std::string why;
   if (!o->Check(&why)) s.Fail("inter", why);
@@ -86,6 +88,32 @@ void Sampler::ThinS2() {
                 s2_count_);
 }
 
+void Sampler::StartS3(const SamplerFrame& f) {
+  phase_ = Phase::kS3;
+  sparse_k_ = 0;
+  resume_submap_ = f.submap_id;
+  tracked_since_resume_ = 0;
+  keyframes_at_resume_ = f.submap_keyframes;
+}
+
+const char* Sampler::SampleDense(const SamplerFrame& f) {
+  const int64_t pos = lost_k_++;
+  if (pos % s2_stride_ != 0) return "skip (S2 thinned)";
+  Take(f, SampleSet::kS2, &body_);
+  s2_pos_.push_back(pos);
+  ++s2_count_;
+  if (s2_count_ >= o_.max_s2) ThinS2();
+  return "sample S2";
+}
+
+void Sampler::DropPending() {
+  body_.clear();
+  s2_pos_.clear();
+  lost_k_ = 0;
+  s2_stride_ = 1;
+  s2_count_ = 0;
+}
+
 void Sampler::Emit(ImageWindow* window) {
   window->id = next_window_id_++;
   window->camera = camera_;
@@ -94,11 +122,7 @@ void Sampler::Emit(ImageWindow* window) {
   for (WindowFrame& f : s1_) window->frames.push_back(std::move(f));
   for (WindowFrame& f : body_) window->frames.push_back(std::move(f));
   s1_.clear();
-  body_.clear();
-  s2_pos_.clear();
-  lost_k_ = 0;
-  s2_stride_ = 1;
-  s2_count_ = 0;
+  DropPending();
   int n[4] = {0, 0, 0, 0};
   for (const WindowFrame& f : window->frames) ++n[static_cast<int>(f.set)];
   spdlog::debug("sampler: emit window {}: {} frames (S1 {}, S2 {}, S3 {}), {} .. {}", window->id,
@@ -122,7 +146,7 @@ bool Sampler::AddFrame(const SamplerFrame& f, ImageWindow* window) {
 
   if (!tracked) {
     if (phase_ == Phase::kIdle) {
-      decision = "skip (not tracked yet)";
+      decision = o_.startup_frames > 0 ? SampleDense(f) : "skip (not tracked yet)";
     } else {
       if (phase_ == Phase::kS1) {
         submap_before_loss_ = f.submap_id;
@@ -132,29 +156,24 @@ bool Sampler::AddFrame(const SamplerFrame& f, ImageWindow* window) {
         spdlog::debug("sampler: t={} lost again during S3, window extends", f.timestamp);
       }
       phase_ = Phase::kS2;
-      const int64_t pos = lost_k_++;
-      if (pos % s2_stride_ == 0) {
-        Take(f, SampleSet::kS2, &body_);
-        s2_pos_.push_back(pos);
-        ++s2_count_;
-        decision = "sample S2";
-        if (s2_count_ >= o_.max_s2) ThinS2();
-      } else {
-        decision = "skip (S2 thinned)";
-      }
+      decision = SampleDense(f);
     }
   } else {
     switch (phase_) {
       case Phase::kIdle:
-        phase_ = Phase::kS1;
         sparse_k_ = 0;
+        if (StartupIsLong()) {
+          // The start itself was hard: ship it, closed by S3 like a loss.
+          spdlog::info("sampler: the front needed {} frames to start; they go to the back", lost_k_);
+          submap_before_loss_ = -1;
+          StartS3(f);
+        } else {
+          DropPending();
+          phase_ = Phase::kS1;
+        }
         break;
       case Phase::kS2:
-        phase_ = Phase::kS3;
-        sparse_k_ = 0;
-        resume_submap_ = f.submap_id;
-        tracked_since_resume_ = 0;
-        keyframes_at_resume_ = f.submap_keyframes;
+        StartS3(f);
         spdlog::debug("sampler: t={} tracking resumed in submap {} ({} frames), S3", f.timestamp, f.submap_id,
                       f.submap_frames);
         break;
@@ -199,7 +218,7 @@ bool Sampler::AddFrame(const SamplerFrame& f, ImageWindow* window) {
 }
 
 bool Sampler::Flush(ImageWindow* window) {
-  const bool has_s2 = s2_count_ > 0;
+  const bool has_s2 = s2_count_ > 0 && (phase_ != Phase::kIdle || StartupIsLong());
   if (!has_s2) {
     spdlog::debug("sampler: end of stream, nothing to flush (phase {})", ToString(phase_));
     return false;

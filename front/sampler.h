@@ -17,7 +17,12 @@
 //
 // Stated policies (docs/ipc.md has the timeline):
 //  - Not-tracked frames before the first tracked frame of the stream are not
-//    a loss (nothing to associate with) and are ignored.
+//    a loss, but they are kept like S2 frames (same cap and thinning). If the
+//    front needed more than `startup_frames` of them to start its first map
+//    (texture-poor or motionless start), they are shipped: the first tracked
+//    frame opens S3 as after a loss, so the back maps the start and the
+//    manager ties it to the first front submap. Otherwise they are dropped
+//    (a normal start: the first submap's reference frame covers them).
 //  - Frame count for S3: the front's count of the submap it tracks in. When
 //    tracking resumes in the SAME submap as before the loss (relocalisation),
 //    the frames tracked (keyframes added) since the resume are counted instead.
@@ -28,7 +33,9 @@
 //    keeps covering the whole loss at decreasing density with bounded memory.
 //    Positions are counted over all not-tracked frames of the window, so the
 //    kept frames are exactly those whose position is a multiple of the stride.
-//  - Flush() (end of stream) emits the pending window when it holds S2 frames.
+//  - Flush() (end of stream) emits the pending window when it holds S2 frames
+//    (start-up frames only when more than `startup_frames`: a front that
+//    never started still leaves the back a window).
 //  - Sparse cadence is continuous: tracked frames are numbered from the start
 //    of tracking (stream start or resume); a frame is sampled when its number
 //    is a multiple of `inter`. After a window is emitted its S3 samples seed
@@ -56,10 +63,15 @@ struct SamplerOptions {
   int th_s3 = 20;     // S3 ends when the front submap holds more frames than this
   S3Unit th_s3_unit = S3Unit::kKeyframes;  // what th_s3 counts
   int max_s2 = 100;   // cap on S2 samples per window (then thinned, stride doubles)
+  // A first map that took more than this many frames to start: the frames
+  // before it go to the back (1 s at 30 fps; a normal start takes 3-15).
+  // 0: start-up frames are never shipped.
+  int startup_frames = 30;
   bool clone_images = true;  // false: keep shallow refs (frame source must not reuse buffers)
   bool Check(std::string* why = nullptr) const;
 };
-// Keys: inter, len, th_s3, th_s3_unit (keyframes | frames), max_s2, clone_images.
+// Keys: inter, len, th_s3, th_s3_unit (keyframes | frames), max_s2, startup_frames,
+// clone_images.
 void ReadOptions(ConfigSection& s, SamplerOptions* o);
 
 struct SamplerFrame {
@@ -92,6 +104,10 @@ class Sampler {
  private:
   void Take(const SamplerFrame& f, SampleSet set, std::vector<WindowFrame>* into);
   void ThinS2();
+  const char* SampleDense(const SamplerFrame& f);  // S2 (and start-up) sampling
+  void DropPending();
+  void StartS3(const SamplerFrame& f);
+  bool StartupIsLong() const { return o_.startup_frames > 0 && lost_k_ > o_.startup_frames; }
   void Emit(ImageWindow* window);
 
   SamplerOptions o_;

@@ -290,6 +290,56 @@ TEST(Sampler, S3CountsKeyframesOfTheNewSubmap) {
   EXPECT_EQ(s3, (std::vector<int>{30, 35}));
 }
 
+// A start that takes longer than startup_frames (no texture, no motion):
+// those frames go to the back like a loss, closed by S3 on the first map.
+TEST(Sampler, LongStartGoesToTheBackClosedByS3) {
+  auto feed = [](int startup, int init_frames, int tracked, bool flush, std::vector<ImageWindow>* out) {
+    SamplerOptions o = PaperOptions();
+    o.th_s3_unit = S3Unit::kKeyframes;
+    o.startup_frames = startup;
+    Sampler sampler(o, PinholeCameraOptions());
+    const int n = init_frames + tracked;
+    for (int i = 0; i < n; ++i) {
+      SamplerFrame f;
+      f.timestamp = static_cast<Timestamp>(i) * 1000000;
+      f.image = cv::Mat(8, 8, CV_8UC1, cv::Scalar(i % 256));
+      const bool init = i < init_frames;
+      f.state = init ? TrackingState::kInitializing : TrackingState::kTracking;
+      f.submap_id = 0;
+      f.submap_frames = i + 1;
+      f.submap_keyframes = init ? 0 : 2 + (i - init_frames) / 3;
+      ImageWindow w;
+      if (sampler.AddFrame(f, &w)) out->push_back(w);
+    }
+    ImageWindow w;
+    if (flush && sampler.Flush(&w)) out->push_back(w);
+    return sampler.pending();
+  };
+  std::vector<ImageWindow> w;
+  feed(30, 40, 40, false, &w);
+  ASSERT_EQ(w.size(), 1u);
+  std::vector<int> expect;
+  for (int i = 0; i < 40; ++i) expect.push_back(i);
+  for (int i : {40, 45, 50, 55, 60}) expect.push_back(i);  // 2 + 21 / 3 > 8 at frame 61
+  EXPECT_EQ(Indices(w[0]), expect);
+  EXPECT_EQ(Sets(w[0]), std::string(40, '2') + "33333");
+  // A normal start (30 frames, not more) is dropped: nothing is shipped and
+  // only the S1 ring stays pending.
+  w.clear();
+  EXPECT_EQ(feed(30, 30, 40, true, &w), 4u);
+  EXPECT_TRUE(w.empty());
+  // startup_frames 0: never shipped.
+  EXPECT_EQ(feed(0, 40, 40, true, &w), 4u);
+  EXPECT_TRUE(w.empty());
+  // A front that never starts leaves the back one window at the end.
+  feed(30, 50, 0, true, &w);
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_EQ(w[0].frames.size(), 50u);
+  w.clear();
+  feed(30, 20, 0, true, &w);
+  EXPECT_TRUE(w.empty());
+}
+
 TEST(SamplerOptions, CheckAndRead) {
   SamplerOptions o;
   EXPECT_TRUE(o.Check());
@@ -301,7 +351,8 @@ TEST(SamplerOptions, CheckAndRead) {
   EXPECT_FALSE(o.Check(&why));
   EXPECT_NE(why.find("inter"), std::string::npos);
 
-  auto cfg = LoadConfigString("inter: 3\nlen: 6\nth_s3: 12\nmax_s2: 50\nclone_images: false\n");
+  EXPECT_EQ(o.startup_frames, 30);
+  auto cfg = LoadConfigString("inter: 3\nlen: 6\nth_s3: 12\nmax_s2: 50\nstartup_frames: 0\nclone_images: false\n");
   SamplerOptions r;
   ReadOptions(cfg, &r);
   cfg.Finish();
@@ -309,7 +360,11 @@ TEST(SamplerOptions, CheckAndRead) {
   EXPECT_EQ(r.len, 6);
   EXPECT_EQ(r.th_s3, 12);
   EXPECT_EQ(r.max_s2, 50);
+  EXPECT_EQ(r.startup_frames, 0);
   EXPECT_FALSE(r.clone_images);
+  auto negative = LoadConfigString("startup_frames: -1\n");
+  SamplerOptions n;
+  EXPECT_THROW(ReadOptions(negative, &n), ConfigError);
   auto unit = LoadConfigString("th_s3_unit: frames\n");
   ReadOptions(unit, &r);
   EXPECT_EQ(r.th_s3_unit, S3Unit::kFrames);
