@@ -169,7 +169,7 @@ TEST(FrontPublisher, ShipsWindowsSubmapsAndWritesFiles) {
   const IpcOptions ipc = SmallIpc(UniqueInstance("a"));
   // docs/ipc.md example: inter 5, th_s3 8, len 4: tracked 0..29 in submap 0,
   // lost 30..37, re-initialising 38..41 (submap 1, counts 1..4), tracked from
-  // 42 -> window 10 15 20 25 | 30..41 | 42 emitted at frame 46.
+  // 42 -> window 10 15 20 25 (+ tail 26..29) | 30..41 | 42 emitted at frame 46.
   FakeFront ff;
   ff.Add(30, TrackingState::kTracking, 0);
   ff.Add(8, TrackingState::kLost, 0);
@@ -217,14 +217,16 @@ TEST(FrontPublisher, ShipsWindowsSubmapsAndWritesFiles) {
 
   // Windows: exactly the documented one (no Flush window: it ends in S1).
   ASSERT_EQ(got.windows.size(), 1u);
-  std::vector<int> idx = {10, 15, 20, 25};
-  std::string sets = "1111";
+  // S1 ring 10..25 and the pre-loss tail 26..29 (pre_loss 4).
+  std::vector<int> idx = {10, 15, 20, 25, 26, 27, 28, 29};
+  std::string sets = "11111111";
   for (int i = 30; i <= 41; ++i) idx.push_back(i), sets += '2';
   idx.push_back(42);
   sets += '3';
   ExpectWindowFrames(got.windows[0], idx, sets);
   EXPECT_EQ(got.windows[0].camera.fx, 10);
-  EXPECT_EQ(got.windows[0].frames[4].front_state, TrackingState::kLost);
+  EXPECT_EQ(got.windows[0].frames[7].front_state, TrackingState::kTracking);
+  EXPECT_EQ(got.windows[0].frames[8].front_state, TrackingState::kLost);
   EXPECT_EQ(got.windows[0].frames.back().front_submap_id, 1);
 
   // Submaps: resends 0,0, finished 0, resends 1,1,1, finished 1, in that order.

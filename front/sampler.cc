@@ -14,6 +14,7 @@ bool SamplerOptions::Check(std::string* why) const {
   if (th_s3 < 0) return fail("th_s3 must be >= 0");
   if (max_s2 < 2) return fail("max_s2 must be >= 2");
   if (startup_frames < 0) return fail("startup_frames must be >= 0");
+  if (pre_loss < 0) return fail("pre_loss must be >= 0");
   return true;
 }
 
@@ -29,6 +30,7 @@ void ReadOptions(ConfigSection& s, SamplerOptions* o) {
   }
   s.ReadInRange("max_s2", &o->max_s2, 2, 100000);
   s.ReadInRange("startup_frames", &o->startup_frames, 0, 1000000);
+  s.ReadInRange("pre_loss", &o->pre_loss, 0, 10000);
   s.Read("clone_images", &o->clone_images);
   std::string why;
   if (!o->Check(&why)) s.Fail("inter", why);
@@ -63,6 +65,49 @@ void Sampler::Take(const SamplerFrame& f, SampleSet set, std::vector<WindowFrame
     s1_.push_back(std::move(w));
     while (static_cast<int>(s1_.size()) > o_.len) s1_.pop_front();
   }
+}
+
+void Sampler::Recycle(cv::Mat* image) {
+  // Only our own clones: a shallow ref still belongs to the frame source.
+  if (o_.clone_images && !image->empty()) spare_.push_back(std::move(*image));
+  image->release();
+}
+
+void Sampler::HoldTail(const SamplerFrame& f) {
+  if (o_.pre_loss == 0) return;
+  if (static_cast<int>(tail_.size()) >= o_.pre_loss) {
+    Recycle(&tail_.front().image);
+    tail_.pop_front();
+  }
+  WindowFrame w;
+  w.timestamp = f.timestamp;
+  if (o_.clone_images) {
+    if (!spare_.empty()) {
+      w.image = std::move(spare_.back());
+      spare_.pop_back();
+    }
+    f.image.copyTo(w.image);  // reuses the buffer when the size matches
+  } else {
+    w.image = f.image;
+  }
+  w.front_state = f.state;
+  w.front_submap_id = f.submap_id;
+  tail_.push_back(std::move(w));
+}
+
+void Sampler::ShipTail(SampleSet set) {
+  // Appended after the ring's trim: the tail does not push S1 samples out.
+  for (WindowFrame& w : tail_) {
+    w.set = set;
+    if (set == SampleSet::kS1) {
+      s1_.push_back(std::move(w));
+    } else {
+      body_.push_back(std::move(w));
+    }
+  }
+  if (!tail_.empty())
+    spdlog::debug("sampler: {} tracked frames before the loss join the window", tail_.size());
+  tail_.clear();
 }
 
 void Sampler::ThinS2() {
@@ -148,6 +193,7 @@ bool Sampler::AddFrame(const SamplerFrame& f, ImageWindow* window) {
     if (phase_ == Phase::kIdle) {
       decision = o_.startup_frames > 0 ? SampleDense(f) : "skip (not tracked yet)";
     } else {
+      if (phase_ == Phase::kS1 || phase_ == Phase::kS3) ShipTail(phase_ == Phase::kS1 ? SampleSet::kS1 : SampleSet::kS3);
       if (phase_ == Phase::kS1) {
         submap_before_loss_ = f.submap_id;
         spdlog::debug("sampler: t={} tracking lost in submap {}, dense sampling (S2)", f.timestamp,
@@ -202,7 +248,11 @@ bool Sampler::AddFrame(const SamplerFrame& f, ImageWindow* window) {
     }
     const bool sample = sparse_k_ % o_.inter == 0;
     ++sparse_k_;
-    if (sample) {
+    if (!sample) {
+      HoldTail(f);
+    } else {
+      for (WindowFrame& w : tail_) Recycle(&w.image);
+      tail_.clear();
       if (phase_ == Phase::kS3) {
         Take(f, SampleSet::kS3, &body_);
         decision = "sample S3";

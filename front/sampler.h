@@ -12,6 +12,10 @@
 //       motion for the back to tie the new submap to the window) or every
 //       frame the front assigned to it (the sampler_test's fr1_room figures;
 //       re-initialisation frames alone often exceed 8, leaving S3 empty).
+//   Pre-loss tail (rumi, not in the paper): on a loss, the up to `pre_loss`
+//       tracked frames after the last sparse sample join the window as well
+//       (labelled like that sample), so the back's model reaches the last
+//       frame the front tracked: that is where the two submaps must overlap.
 //   Then S = S1 u S2 u S3 is emitted as one ImageWindow and the back starts.
 //   Nothing is emitted while tracking never fails.
 //
@@ -67,11 +71,15 @@ struct SamplerOptions {
   // before it go to the back (1 s at 30 fps; a normal start takes 3-15).
   // 0: start-up frames are never shipped.
   int startup_frames = 30;
+  // Tracked frames after the last sparse sample shipped on a loss (at most
+  // inter - 1 exist). With every 5th frame only, COLMAP registered none of a
+  // 0.5 s first submap (generated `weak` seed 3). 0: off.
+  int pre_loss = 4;
   bool clone_images = true;  // false: keep shallow refs (frame source must not reuse buffers)
   bool Check(std::string* why = nullptr) const;
 };
 // Keys: inter, len, th_s3, th_s3_unit (keyframes | frames), max_s2, startup_frames,
-// clone_images.
+// pre_loss, clone_images.
 void ReadOptions(ConfigSection& s, SamplerOptions* o);
 
 struct SamplerFrame {
@@ -98,6 +106,8 @@ class Sampler {
   Phase phase() const { return phase_; }
   // Samples held for the pending window (S1 ring + S2 + S3).
   size_t pending() const { return s1_.size() + body_.size(); }
+  // Tracked frames held since the last sparse sample (pre-loss tail).
+  size_t tail() const { return tail_.size(); }
   int s2_stride() const { return s2_stride_; }
   int64_t windows_emitted() const { return next_window_id_; }
 
@@ -109,12 +119,17 @@ class Sampler {
   void StartS3(const SamplerFrame& f);
   bool StartupIsLong() const { return o_.startup_frames > 0 && lost_k_ > o_.startup_frames; }
   void Emit(ImageWindow* window);
+  void HoldTail(const SamplerFrame& f);
+  void Recycle(cv::Mat* image);
+  void ShipTail(SampleSet set);
 
   SamplerOptions o_;
   PinholeCameraOptions camera_;
   Phase phase_ = Phase::kIdle;
   std::deque<WindowFrame> s1_;     // last `len` sparse samples
   std::vector<WindowFrame> body_;  // S2 and S3 samples of the pending window, time order
+  std::deque<WindowFrame> tail_;   // tracked frames since the last sparse sample
+  std::vector<cv::Mat> spare_;     // recycled tail buffers: no allocation per frame
   std::vector<int64_t> s2_pos_;    // position among lost frames, per S2 entry of body_
   int64_t sparse_k_ = 0;           // tracked frames since tracking (re)started
   int64_t lost_k_ = 0;             // not-tracked frames in the pending window

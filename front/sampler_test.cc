@@ -75,6 +75,7 @@ SamplerOptions PaperOptions() {
   o.th_s3_unit = S3Unit::kFrames;  // the paper's fr1_room figures count frames
   o.len = 4;
   o.max_s2 = 100;
+  o.pre_loss = 0;  // rumi's pre-loss tail is not in the paper (own test below)
   return o;
 }
 
@@ -211,6 +212,53 @@ TEST(Sampler, ConsecutiveWindowsGetNewIdsAndS3SeedsS1) {
   // S1 of the second window: the previous S3 samples 11, 16 then sparse 21.
   EXPECT_EQ(Indices(r.windows[1]), (std::vector<int>{11, 16, 21, 23, 24, 29}));
   EXPECT_EQ(Sets(r.windows[1]), "111233");
+}
+
+// rumi's pre-loss tail: the tracked frames after the last sparse sample go
+// with the window on a loss, in S1 and again on a second loss during S3.
+TEST(Sampler, PreLossTailShipsTheLastTrackedFrames) {
+  SamplerOptions o = PaperOptions();
+  o.pre_loss = 2;
+  Script sc;
+  sc.Add(9, TrackingState::kTracking, 0);  // S1 0,5; tail 6,7,8 -> the last 2: 7,8
+  sc.Add(2, TrackingState::kLost, 0);      // 9,10
+  sc.Add(8, TrackingState::kTracking, 1);  // 11..18 counts 1..8: S3 11,16; tail 17,18
+  sc.Add(2, TrackingState::kLost, 1);      // 19,20: the tail goes in as S3
+  sc.Add(9, TrackingState::kTracking, 2);  // 21..29: S3 21,26; count 9 at 29 ends it
+  Sampler s(o, PinholeCameraOptions());
+  const FeedResult r = Feed(&s, sc);
+  ASSERT_EQ(r.windows.size(), 1u);
+  EXPECT_EQ(Indices(r.windows[0]), (std::vector<int>{0, 5, 7, 8, 9, 10, 11, 16, 17, 18, 19, 20, 21, 26}));
+  EXPECT_EQ(Sets(r.windows[0]), "11112233332233");
+  EXPECT_EQ(r.emitted_at[0], 29);
+  for (const auto& f : r.windows[0].frames) {
+    const int i = static_cast<int>(f.timestamp / 1000000);
+    EXPECT_EQ(f.image.at<uint8_t>(0, 0), i % 256);
+    EXPECT_EQ(f.front_state, sc.states[i]);
+  }
+  EXPECT_EQ(s.tail(), 2u);  // 28, 29 wait for the next sample or loss
+}
+
+// Tail frames are copies: a driver reusing one buffer cannot change them.
+TEST(Sampler, PreLossTailCopiesImages) {
+  SamplerOptions o = PaperOptions();
+  o.pre_loss = 4;
+  Sampler s(o, PinholeCameraOptions());
+  cv::Mat buffer(4, 4, CV_8UC1);
+  ImageWindow w;
+  for (int i = 0; i < 8; ++i) {  // tracked 0..4 (sample 0, tail 1..4), lost 5..7
+    buffer.setTo(i + 1);
+    SamplerFrame f;
+    f.timestamp = i;
+    f.image = buffer;
+    f.state = i < 5 ? TrackingState::kTracking : TrackingState::kLost;
+    f.submap_id = 0;
+    f.submap_frames = i + 1;
+    s.AddFrame(f, &w);
+  }
+  ASSERT_TRUE(s.Flush(&w));
+  ASSERT_EQ(w.frames.size(), 8u);
+  for (int i = 0; i < 8; ++i) EXPECT_EQ(w.frames[i].image.at<uint8_t>(0, 0), i + 1) << i;
 }
 
 TEST(Sampler, ClonesSampledImagesSoBufferReuseIsHarmless) {
@@ -352,7 +400,9 @@ TEST(SamplerOptions, CheckAndRead) {
   EXPECT_NE(why.find("inter"), std::string::npos);
 
   EXPECT_EQ(o.startup_frames, 30);
-  auto cfg = LoadConfigString("inter: 3\nlen: 6\nth_s3: 12\nmax_s2: 50\nstartup_frames: 0\nclone_images: false\n");
+  EXPECT_EQ(o.pre_loss, 4);
+  auto cfg = LoadConfigString(
+      "inter: 3\nlen: 6\nth_s3: 12\nmax_s2: 50\nstartup_frames: 0\npre_loss: 1\nclone_images: false\n");
   SamplerOptions r;
   ReadOptions(cfg, &r);
   cfg.Finish();
@@ -361,10 +411,13 @@ TEST(SamplerOptions, CheckAndRead) {
   EXPECT_EQ(r.th_s3, 12);
   EXPECT_EQ(r.max_s2, 50);
   EXPECT_EQ(r.startup_frames, 0);
+  EXPECT_EQ(r.pre_loss, 1);
   EXPECT_FALSE(r.clone_images);
   auto negative = LoadConfigString("startup_frames: -1\n");
   SamplerOptions n;
   EXPECT_THROW(ReadOptions(negative, &n), ConfigError);
+  auto negative_tail = LoadConfigString("pre_loss: -2\n");
+  EXPECT_THROW(ReadOptions(negative_tail, &n), ConfigError);
   auto unit = LoadConfigString("th_s3_unit: frames\n");
   ReadOptions(unit, &r);
   EXPECT_EQ(r.th_s3_unit, S3Unit::kFrames);
