@@ -49,6 +49,7 @@ void ReadOptions(ConfigSection& s, BackOptions* o) {
   s.ReadInRange("num_threads", &o->num_threads, 1, 64);
   s.ReadInRange("max_num_features", &o->max_num_features, 64, 65536);
   s.Read("normalize_contrast", &o->normalize_contrast);
+  s.Read("sift_domain_size_pooling", &o->sift_domain_size_pooling);
   s.ReadInRange("sift_peak_threshold", &o->sift_peak_threshold, 0.0, 1.0);
   s.ReadInRange("retry_peak_threshold", &o->retry_peak_threshold, 0.0, 1.0);
   s.ReadInRange("retry_below_registered", &o->retry_below_registered, 0.0, 1.0);

@@ -52,6 +52,10 @@ struct BackOptions {
   // 0.004, 93/93 at 0.0015 (docs/synth.md).
   double retry_peak_threshold = 0.0015;
   double retry_below_registered = 0.9;
+  // COLMAP SiftExtraction.domain_size_pooling (DSP-SIFT: descriptors pooled
+  // over several patch sizes; CPU extraction only). Off: better on one dark
+  // window (lost frames 0.016-0.023 -> 0.011 m), not end to end (docs/back.md).
+  bool sift_domain_size_pooling = false;
 
   bool Check(std::string* why = nullptr) const;
   // Resolved workspace root (workspace_dir or the default under $TMPDIR).

@@ -235,6 +235,8 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
                      &res.times.feature_extraction_s, &res.times.feature_extraction_cpu_s});
     if (peak_threshold > 0)
       steps.back().args.insert(steps.back().args.end(), {"--SiftExtraction.peak_threshold", Num(peak_threshold)});
+    if (options_.sift_domain_size_pooling)
+      steps.back().args.insert(steps.back().args.end(), {"--SiftExtraction.domain_size_pooling", "1"});
     if (options_.matcher == "sequential") {
       steps.push_back({"matching",
                        {"sequential_matcher", "--database_path", db.string(),

@@ -192,6 +192,7 @@ TEST_F(BackSubmapBuilderTest, ModelsBecomeSubmapsAndArgumentsAreRight) {
         "--Mapper.min_model_size 3", "exhaustive_matcher"}) {
     EXPECT_NE(args.find(want), std::string::npos) << want << "\nin:\n" << args;
   }
+  EXPECT_EQ(args.find("domain_size_pooling"), std::string::npos) << "DSP-SIFT is off by default";
   // Workspace kept on request.
   ASSERT_FALSE(r.workspace.empty());
   EXPECT_TRUE(fs::exists(fs::path(r.workspace) / "colmap.log"));
@@ -207,6 +208,7 @@ TEST_F(BackSubmapBuilderTest, RetryWithLowerPeakThresholdKeepsTheLargerModel) {
   WriteCannedModel(all / "0", window_.camera, {t[0], t[1], t[2], t[3], t[4]});
   options_.colmap_path = FakeColmap("if [ $cmd = mapper ]; then case \"$out\" in *sparse_retry) cp -r " +
                                     all.string() + "/* $out/;; *) cp -r " + few.string() + "/* $out/;; esac; fi");
+  options_.sift_domain_size_pooling = true;
   BackSubmapBuilder b(options_);
   BackResult r = b.Build(window_);
   ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
@@ -219,6 +221,10 @@ TEST_F(BackSubmapBuilderTest, RetryWithLowerPeakThresholdKeepsTheLargerModel) {
   EXPECT_NE(args.find("--SiftExtraction.peak_threshold 0.004"), std::string::npos) << args;
   EXPECT_NE(args.find("--SiftExtraction.peak_threshold 0.0015"), std::string::npos) << args;
   EXPECT_NE(args.find("database_retry.db"), std::string::npos) << args;
+  // DSP-SIFT, when asked for, goes to both attempts' extraction.
+  const std::string dsp = "--SiftExtraction.domain_size_pooling 1";
+  ASSERT_NE(args.find(dsp), std::string::npos) << args;
+  EXPECT_NE(args.find(dsp, args.find(dsp) + 1), std::string::npos) << args;
   EXPECT_TRUE(WorkspaceEmpty());
 
   // 3 of 5 is enough at retry_below_registered 0.6: no second attempt.
@@ -310,13 +316,15 @@ TEST(BackOptionsTest, ReadAndCheck) {
   BackOptions o;
   EXPECT_TRUE(o.Check());
   ConfigSection s = LoadConfigString(
-      "back: {num_threads: 1, max_num_features: 1024, matcher: sequential, step_timeout_s: 30}");
+      "back: {num_threads: 1, max_num_features: 1024, matcher: sequential, step_timeout_s: 30, "
+      "sift_domain_size_pooling: true}");
   ConfigSection b = s.Child("back");
   ReadOptions(b, &o);
   EXPECT_EQ(o.num_threads, 1);
   EXPECT_EQ(o.max_num_features, 1024);
   EXPECT_EQ(o.matcher, "sequential");
   EXPECT_EQ(o.step_timeout_s, 30.0);
+  EXPECT_TRUE(o.sift_domain_size_pooling);
   EXPECT_NO_THROW(b.Finish());
 
   for (const char* bad : {"back: {matcher: fancy}", "back: {num_threads: 0}", "back: {num_threads: x}",
