@@ -1,6 +1,8 @@
 #include "manager/global_map.h"
 
+#include <algorithm>
 #include <map>
+#include <set>
 
 namespace rumi {
 
@@ -59,17 +61,32 @@ int GlobalMap::NumKeyframes(int component) const {
   return n;
 }
 
-int GlobalMap::LargestComponent() const {
-  std::map<int, int> kfs;
-  for (size_t i = 0; i < entries_.size(); ++i) kfs[Component(int(i))] += int(entries_[i].submap.keyframes.size());
-  int best = -1, best_n = -1;
-  for (const auto& [c, n] : kfs) {
-    if (n > best_n) {
-      best = c;
-      best_n = n;
-    }
+int GlobalMap::NumPosedFrames(int component) const {
+  std::set<int64_t> t;
+  for (int m : Members(component)) {
+    const Submap& s = entries_[m].submap;
+    for (const Keyframe& kf : s.keyframes) t.insert(kf.timestamp);
+    for (const FrameRecord& f : s.frames)
+      if (f.state == TrackingState::kTracking || f.state == TrackingState::kCoarse) t.insert(f.timestamp);
   }
-  return best;
+  return int(t.size());
+}
+
+std::vector<int> GlobalMap::ComponentsBySize() const {
+  std::vector<int> roots;
+  std::map<int, std::pair<int, int>> size;  // root -> (posed frames, keyframes)
+  for (size_t i = 0; i < entries_.size(); ++i) {
+    if (Component(int(i)) != int(i)) continue;
+    roots.push_back(int(i));
+    size[int(i)] = {NumPosedFrames(int(i)), NumKeyframes(int(i))};
+  }
+  std::stable_sort(roots.begin(), roots.end(), [&](int a, int b) { return size[a] > size[b]; });
+  return roots;
+}
+
+int GlobalMap::LargestComponent() const {
+  const std::vector<int> roots = ComponentsBySize();
+  return roots.empty() ? -1 : roots.front();
 }
 
 }  // namespace rumi

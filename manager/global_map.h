@@ -57,9 +57,15 @@ class GlobalMap {
   // Applies S (old global -> new global) to every submap of i's component.
   void MoveComponent(int i, const Sim3& S);
   void Union(int i, int j);
-  // Component with the most keyframes (-1 when empty).
+  // The main component: the most posed frames (the longest stretch of the
+  // sequence it covers), then the most keyframes; -1 when empty. Ranking by
+  // keyframes alone would pick a dense short map over a long merged one.
   int LargestComponent() const;
+  // Components' roots, the main one first, in the same order.
+  std::vector<int> ComponentsBySize() const;
   int NumKeyframes(int component) const;
+  // Distinct frames with a pose: keyframes and tracked frame records.
+  int NumPosedFrames(int component) const;
 
   std::vector<FusedPoint>& fused() { return fused_; }
   const std::vector<FusedPoint>& fused() const { return fused_; }

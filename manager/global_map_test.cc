@@ -45,5 +45,34 @@ TEST(GlobalMap, UnionFindAndMoveComponent) {
   EXPECT_EQ(m.Members(m.Component(0)).size(), 4u);
 }
 
+// The main component is the one covering the most frames, not the one with the
+// most keyframes: a long merged map beats a dense short one (a front submap
+// that keyframed every frame through a slow start).
+TEST(GlobalMap, MainComponentCoversTheMostFrames) {
+  GlobalMap m;
+  Submap dense = Make(SubmapSource::kFront, 0, 6);
+  for (int i = 0; i < 6; ++i) dense.keyframes[i].timestamp = 1000 + i;
+  Submap sparse = Make(SubmapSource::kFront, 1, 2);
+  sparse.keyframes[0].timestamp = 2000;
+  sparse.keyframes[1].timestamp = 2009;
+  for (int i = 0; i < 10; ++i) {
+    FrameRecord f;
+    f.timestamp = 2000 + i;  // two of them are the keyframes: counted once
+    f.state = i == 5 ? TrackingState::kLost : TrackingState::kTracking;
+    sparse.frames.push_back(f);
+  }
+  Submap back = Make(SubmapSource::kBack, 0, 3);
+  for (int i = 0; i < 3; ++i) back.keyframes[i].timestamp = 2005 + 10 * i;  // 2005 (lost in front), 2015, 2025
+  m.AddSubmap(dense);
+  m.AddSubmap(sparse);
+  m.AddSubmap(back);
+  EXPECT_EQ(m.NumPosedFrames(m.Component(0)), 6);
+  EXPECT_EQ(m.NumPosedFrames(m.Component(1)), 9);
+  EXPECT_EQ(m.LargestComponent(), m.Component(1));  // 9 posed frames vs 6, though 2 keyframes vs 6
+  m.Union(1, 2);
+  EXPECT_EQ(m.NumPosedFrames(m.Component(1)), 12);  // + 2005, 2015, 2025
+  EXPECT_EQ(m.ComponentsBySize(), (std::vector<int>{m.Component(1), m.Component(0)}));
+}
+
 }  // namespace
 }  // namespace rumi

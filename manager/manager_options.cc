@@ -36,6 +36,13 @@ bool ManagerOptions::Check(std::string* why) const {
   if (!(front_search_px >= 0 && front_search_px <= 50)) return Fail(why, "front_search_px must be in [0, 50]");
   if (front_search_max_hamming < 0 || front_search_max_hamming > 256)
     return Fail(why, "front_search_max_hamming must be in [0, 256]");
+  if (place_max_hamming < 0 || place_max_hamming > 256) return Fail(why, "place_max_hamming must be in [0, 256]");
+  if (!(place_ratio > 0 && place_ratio <= 1)) return Fail(why, "place_ratio must be in (0, 1]");
+  if (place_ransac_iterations < 1) return Fail(why, "place_ransac_iterations must be >= 1");
+  if (place_min_inliers < 3) return Fail(why, "place_min_inliers must be >= 3");
+  if (!(place_min_inlier_ratio >= 0 && place_min_inlier_ratio < 1))
+    return Fail(why, "place_min_inlier_ratio must be in [0, 1)");
+  if (!(place_max_rmse_px > 0)) return Fail(why, "place_max_rmse_px must be > 0");
   return true;
 }
 
@@ -66,6 +73,13 @@ void ReadOptions(ConfigSection& s, ManagerOptions* o) {
   s.ReadInRange("culling_octave_tolerance", &o->culling_octave_tolerance, 0, 31);
   s.ReadInRange("front_search_px", &o->front_search_px, 0.0, 50.0);
   s.ReadInRange("front_search_max_hamming", &o->front_search_max_hamming, 0, 256);
+  s.Read("place_merge", &o->place_merge);
+  s.ReadInRange("place_max_hamming", &o->place_max_hamming, 0, 256);
+  s.ReadInRange("place_ratio", &o->place_ratio, 1e-3, 1.0);
+  s.ReadInRange("place_ransac_iterations", &o->place_ransac_iterations, 1, 1000000);
+  s.ReadInRange("place_min_inliers", &o->place_min_inliers, 3, 1000000);
+  s.ReadInRange("place_min_inlier_ratio", &o->place_min_inlier_ratio, 0.0, 0.99);
+  s.ReadInRange("place_max_rmse_px", &o->place_max_rmse_px, 1e-3, 1000.0);
   std::string why;
   if (!o->Check(&why)) throw ConfigError(s.file() + ": section 'manager': " + why);
 }

@@ -65,6 +65,20 @@ struct ManagerOptions {
   // front_search_max_hamming (ORB-SLAM's fusion: 3 px, 50). 0 = off.
   double front_search_px = 3.0;
   int front_search_max_hamming = 50;
+  // Place merge (manager/place_merge.h): front submaps that no back submap
+  // joined are matched by the ORB descriptors of their map points (nearest
+  // within place_max_hamming bits and below place_ratio times the runner-up),
+  // a RANSAC Sim(3) with place_ransac_iterations samples keeps the matches
+  // within ransac_threshold_ratio of the scene radius, and a merge needs
+  // place_min_inliers of them, an inlier ratio of place_min_inlier_ratio and
+  // a refined reprojection RMSE of at most place_max_rmse_px.
+  bool place_merge = true;
+  int place_max_hamming = 50;
+  double place_ratio = 0.8;
+  int place_ransac_iterations = 2000;
+  int place_min_inliers = 40;
+  double place_min_inlier_ratio = 0.25;
+  double place_max_rmse_px = 3.0;
 
   bool Check(std::string* why = nullptr) const;
 };

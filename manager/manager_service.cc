@@ -16,6 +16,7 @@
 #include "common/timestamp.h"
 #include "manager/global_trajectory.h"
 #include "manager/map_file.h"
+#include "manager/place_merge.h"
 
 namespace rumi {
 namespace fs = std::filesystem;
@@ -73,17 +74,6 @@ nlohmann::json ReportJson(const MergeReport& r) {
                       {"seconds_weld", r.seconds_weld}};
   if (r.merged) j["S_bf"] = Sim3Json(r.S_bf);
   return j;
-}
-
-// Component roots, the most keyframes first (ties: lower root first, as
-// GlobalMap::LargestComponent picks).
-std::vector<int> ComponentsBySize(const GlobalMap& map) {
-  std::vector<int> roots;
-  for (size_t i = 0; i < map.size(); ++i)
-    if (map.Component(int(i)) == int(i)) roots.push_back(int(i));
-  std::stable_sort(roots.begin(), roots.end(),
-                   [&](int a, int b) { return map.NumKeyframes(a) > map.NumKeyframes(b); });
-  return roots;
 }
 
 }  // namespace
@@ -241,7 +231,7 @@ void ManagerService::UpdateCounts() {
   stats_.submaps_front = stats_.submaps_back = 0;
   for (size_t i = 0; i < map_.size(); ++i)
     (map_.submap(int(i)).source == SubmapSource::kBack ? stats_.submaps_back : stats_.submaps_front)++;
-  stats_.components = int(ComponentsBySize(map_).size());
+  stats_.components = int(map_.ComponentsBySize().size());
   stats_.merges = int(map_.size()) - stats_.components;
 }
 
@@ -252,6 +242,7 @@ bool ManagerService::Rebuild(std::string* why) {
   GlobalMap map = CopyWithout(base_, replaced);
   for (const auto& kv : received_) map.AddSubmap(kv.second);
   stats_.reports = MergeAll(&map, options_.manager);
+  for (MergeReport& r : PlaceMergeAll(&map, options_.manager)) stats_.reports.push_back(std::move(r));
   stats_.merge_attempts = int(stats_.reports.size());
   for (const auto& r : stats_.reports) {
     if (r.merged) {
@@ -281,7 +272,7 @@ bool ManagerService::Rebuild(std::string* why) {
 }
 
 bool ManagerService::WriteTrajectories(std::string* why) {
-  const std::vector<int> roots = ComponentsBySize(map_);
+  const std::vector<int> roots = map_.ComponentsBySize();
   const auto write = [&](const std::string& name, const std::vector<GlobalPose>& traj) {
     return WriteAtomically((fs::path(options_.out_dir) / name).string(), why,
                            [&](const std::string& tmp, std::string* w) { return WriteTumTrajectory(tmp, traj, w); });
@@ -327,7 +318,7 @@ bool ManagerService::WriteStats(std::string* why) const {
   j["culled_front"] = stats_.culling.culled_front;
   j["map_file"] = options_.MapPath();
   nlohmann::json comps = nlohmann::json::array();
-  const std::vector<int> roots = ComponentsBySize(map_);
+  const std::vector<int> roots = map_.ComponentsBySize();
   for (size_t k = 0; k < roots.size(); ++k) {
     nlohmann::json members = nlohmann::json::array();
     for (int m : map_.Members(roots[k])) members.push_back(ToString(map_.Key(m)));

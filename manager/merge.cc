@@ -28,6 +28,46 @@ void TransformSubmap(const Sim3& S, Submap* s) {
   for (FrameRecord& f : s->frames) f.T_wc = S.TransformPose(f.T_wc);
 }
 
+void CommitMerge(GlobalMap* map, int front, int back, const std::vector<PointMatch>& matches,
+                 const std::vector<char>& inliers, double fuse_threshold, const std::vector<int64_t>& seeds,
+                 const ManagerOptions& options, MergeReport* report) {
+  MergeReport& r = *report;
+  // Move the smaller component: S_gb * S_bf = S_gf afterwards.
+  const Sim3 S_gf = map->ToGlobal(front), S_gb = map->ToGlobal(back);
+  r.front_moved = map->NumKeyframes(map->Component(front)) <= map->NumKeyframes(map->Component(back));
+  if (r.front_moved) {
+    map->MoveComponent(front, S_gb * r.S_bf * S_gf.Inverse());
+  } else {
+    map->MoveComponent(back, S_gf * r.S_bf.Inverse() * S_gb.Inverse());
+  }
+  map->Union(front, back);
+
+  // Fuse matched inliers that still agree in 3D after refinement: the front
+  // duplicate takes the back point's position and is linked to it.
+  const auto t0 = std::chrono::steady_clock::now();
+  Submap& Fm = map->submap(front);
+  const Submap& B = map->submap(back);
+  const SubmapIndex fi(Fm), bi(B);
+  const Sim3 S_fb = r.S_bf.Inverse();
+  std::vector<std::pair<int64_t, int64_t>> fused;
+  for (size_t m = 0; m < matches.size(); ++m) {
+    if (!inliers[m]) continue;
+    const int f = fi.Point(matches[m].front_point_id), b = bi.Point(matches[m].back_point_id);
+    if (f < 0 || b < 0) continue;
+    if ((r.S_bf * Fm.points[f].position - B.points[b].position).norm() > fuse_threshold) continue;
+    Fm.points[f].position = S_fb * B.points[b].position;
+    fused.emplace_back(Fm.points[f].id, B.points[b].id);
+    map->fused().push_back({front, Fm.points[f].id, back, B.points[b].id});
+  }
+  r.fused_points = int(fused.size());
+
+  if (options.welding_ba) {
+    const auto window = WeldingWindow(Fm, seeds, options.welding_min_covisible, options.welding_max_keyframes);
+    r.welding = WeldWindow(map, front, back, window, fused, options);
+  }
+  r.seconds_weld = Since(t0);
+}
+
 MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& search, const ManagerOptions& options) {
   MergeReport r;
   r.front = map->Key(front);
@@ -65,43 +105,11 @@ MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& sear
   r.refine_initial_rmse_px = refine.initial_rmse_px;
   r.refine_final_rmse_px = refine.final_rmse_px;
 
-  // Move the smaller component: S_gb * S_bf = S_gf afterwards.
-  const Sim3 S_gf = map->ToGlobal(front), S_gb = map->ToGlobal(back);
-  r.front_moved = map->NumKeyframes(map->Component(front)) <= map->NumKeyframes(map->Component(back));
-  if (r.front_moved) {
-    map->MoveComponent(front, S_gb * r.S_bf * S_gf.Inverse());
-  } else {
-    map->MoveComponent(back, S_gf * r.S_bf.Inverse() * S_gb.Inverse());
-  }
-  map->Union(front, back);
-
-  // Fuse M_com inliers that still agree in 3D after refinement: the front
-  // duplicate takes the back point's position and is linked to it.
-  t0 = std::chrono::steady_clock::now();
-  Submap& Fm = map->submap(front);
-  const SubmapIndex fi(Fm), bi(B);
-  const Sim3 S_fb = r.S_bf.Inverse();
-  std::vector<std::pair<int64_t, int64_t>> fused;
-  for (size_t m = 0; m < common.matches.size(); ++m) {
-    if (!align.inliers[m]) continue;
-    const int f = fi.Point(common.matches[m].front_point_id), b = bi.Point(common.matches[m].back_point_id);
-    if (f < 0 || b < 0) continue;
-    if ((r.S_bf * Fm.points[f].position - B.points[b].position).norm() > align.inlier_threshold) continue;
-    Fm.points[f].position = S_fb * B.points[b].position;
-    fused.emplace_back(Fm.points[f].id, B.points[b].id);
-    map->fused().push_back({front, Fm.points[f].id, back, B.points[b].id});
-  }
-  r.fused_points = int(fused.size());
-
-  if (options.welding_ba) {
-    std::vector<int64_t> seeds;
-    for (const auto& p : pairs) seeds.push_back(Fm.keyframes[p.front_keyframe].id);
-    for (const auto& p : frame_pairs)
-      for (int k : p.front_keyframes) seeds.push_back(Fm.keyframes[k].id);
-    const auto window = WeldingWindow(Fm, seeds, options.welding_min_covisible, options.welding_max_keyframes);
-    r.welding = WeldWindow(map, front, back, window, fused, options);
-  }
-  r.seconds_weld = Since(t0);
+  std::vector<int64_t> seeds;
+  for (const auto& p : pairs) seeds.push_back(F.keyframes[p.front_keyframe].id);
+  for (const auto& p : frame_pairs)
+    for (int k : p.front_keyframes) seeds.push_back(F.keyframes[k].id);
+  CommitMerge(map, front, back, common.matches, align.inliers, align.inlier_threshold, seeds, options, &r);
   r.merged = true;
   spdlog::info(
       "merged {} with {} ({} side moved): {} + {} frame pairs, {} common points, inlier ratio {:.2f} ({}), scale {:.4f}, refine rmse "

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "manager/common_points.h"
 #include "manager/global_map.h"
 #include "manager/manager_options.h"
 #include "manager/pairing.h"
@@ -39,6 +40,15 @@ MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& sear
 // no merge succeeds (so chains A <-> back <-> B close), with F^search built
 // from all submaps.
 std::vector<MergeReport> MergeAll(GlobalMap* map, const ManagerOptions& options);
+
+// The common tail of every merge, once r.S_bf (front frame -> back frame) is
+// refined: moves the smaller component, joins the two, fuses the matched
+// inliers that agree within fuse_threshold (back units) and runs the welding
+// BA around the seed keyframes of `front`. Fills the report's fused_points,
+// front_moved, welding and seconds_weld.
+void CommitMerge(GlobalMap* map, int front, int back, const std::vector<PointMatch>& matches,
+                 const std::vector<char>& inliers, double fuse_threshold, const std::vector<int64_t>& seeds,
+                 const ManagerOptions& options, MergeReport* report);
 
 // Re-expresses a submap by S (poses, points, frame records): for export and
 // for tests; the global map itself keeps submaps in their own frames.

@@ -1,0 +1,169 @@
+#include "manager/place_merge.h"
+
+#include <algorithm>
+#include <chrono>
+#include <map>
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+
+#include "common/logging.h"
+#include "manager/sim3_alignment.h"
+#include "manager/sim3_refine.h"
+#include "manager/submap_index.h"
+
+namespace rumi {
+namespace {
+
+double Since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+MergeReport Reject(MergeReport r, const std::string& why) {
+  r.reason = why;
+  spdlog::info("place merge {} <-> {} rejected: {}", ToString(r.front), ToString(r.back), why);
+  return r;
+}
+
+// Descriptor rows of the points that qualify, and their indices.
+cv::Mat PointDescriptors(const Submap& s, std::vector<int>* index) {
+  cv::Mat d;
+  index->clear();
+  for (size_t i = 0; i < s.points.size(); ++i) {
+    const MapPoint& p = s.points[i];
+    if (p.observations.size() < 2 || p.descriptor.empty() || p.descriptor.type() != CV_8U) continue;
+    if (!d.empty() && p.descriptor.cols != d.cols) continue;
+    d.push_back(p.descriptor.row(0));
+    index->push_back(int(i));
+  }
+  return d;
+}
+
+// Keyframes of `s` observing the most of the given points (welding seeds).
+std::vector<int64_t> SeedKeyframes(const Submap& s, const std::vector<int64_t>& point_ids, size_t max_seeds) {
+  const SubmapIndex idx(s);
+  std::map<int64_t, int> votes;
+  for (int64_t id : point_ids) {
+    const int p = idx.Point(id);
+    if (p < 0) continue;
+    for (const auto& o : s.points[p].observations) ++votes[o.keyframe_id];
+  }
+  std::vector<std::pair<int, int64_t>> v;
+  for (const auto& [kf, n] : votes) v.emplace_back(-n, kf);
+  std::sort(v.begin(), v.end());
+  std::vector<int64_t> seeds;
+  for (size_t i = 0; i < v.size() && i < max_seeds; ++i) seeds.push_back(v[i].second);
+  return seeds;
+}
+
+}  // namespace
+
+std::vector<PointMatch> MatchMapPoints(const Submap& a, const Submap& b, int max_hamming, double ratio) {
+  std::vector<int> ia, ib;
+  const cv::Mat da = PointDescriptors(a, &ia), db = PointDescriptors(b, &ib);
+  if (da.empty() || db.rows < 2 || da.cols != db.cols) return {};
+  std::vector<std::vector<cv::DMatch>> knn;
+  cv::BFMatcher(cv::NORM_HAMMING).knnMatch(da, db, knn, 2);
+  std::map<int, std::pair<float, int>> best_for_b;  // b row -> (distance, a row)
+  for (const auto& m : knn) {
+    if (m.size() < 2 || m[0].distance > max_hamming || m[0].distance >= ratio * m[1].distance) continue;
+    auto it = best_for_b.find(m[0].trainIdx);
+    if (it == best_for_b.end() || m[0].distance < it->second.first)
+      best_for_b[m[0].trainIdx] = {m[0].distance, m[0].queryIdx};
+  }
+  std::vector<PointMatch> out;
+  for (const auto& [brow, v] : best_for_b) out.push_back({a.points[ia[v.second]].id, b.points[ib[brow]].id, 1});
+  std::sort(out.begin(), out.end(),
+            [](const PointMatch& x, const PointMatch& y) { return x.front_point_id < y.front_point_id; });
+  return out;
+}
+
+MergeReport PlaceMergePair(GlobalMap* map, int a, int b, const ManagerOptions& options) {
+  MergeReport r;
+  r.front = map->Key(a);
+  r.back = map->Key(b);
+  r.init_method = "place-ransac";
+  if (map->Connected(a, b)) return Reject(r, "already connected");
+  const Submap& A = map->submap(a);
+  const Submap& B = map->submap(b);
+  auto t0 = std::chrono::steady_clock::now();
+  const std::vector<PointMatch> matches = MatchMapPoints(A, B, options.place_max_hamming, options.place_ratio);
+  r.common_points = int(matches.size());
+  if (r.common_points < options.place_min_inliers)
+    return Reject(r, "too few descriptor matches (" + std::to_string(r.common_points) + " < " +
+                         std::to_string(options.place_min_inliers) + ")");
+  const SubmapIndex ai(A), bi(B);
+  std::vector<Eigen::Vector3d> src, dst;
+  for (const PointMatch& m : matches) {
+    src.push_back(A.points[ai.Point(m.front_point_id)].position);
+    dst.push_back(B.points[bi.Point(m.back_point_id)].position);
+  }
+  const double threshold = options.ransac_threshold_ratio * SceneRadius(dst);
+  if (!(threshold > 0)) return Reject(r, "degenerate scene (all matched points coincide)");
+  const RansacSim3Result rs =
+      RansacSim3(src, dst, threshold, options.place_ransac_iterations, options.ransac_seed);
+  r.seconds_align = Since(t0);
+  if (!rs.ok) return Reject(r, "no Sim(3) from " + std::to_string(matches.size()) + " descriptor matches");
+  r.inliers = rs.num_inliers;
+  r.inlier_ratio = double(rs.num_inliers) / double(matches.size());
+  r.S_bf_initial = rs.transform;
+  if (r.inliers < options.place_min_inliers)
+    return Reject(r, "too few inliers (" + std::to_string(r.inliers) + " of " + std::to_string(matches.size()) +
+                         " < " + std::to_string(options.place_min_inliers) + ")");
+  if (r.inlier_ratio < options.place_min_inlier_ratio)
+    return Reject(r, "inlier ratio " + std::to_string(r.inlier_ratio) + " < " +
+                         std::to_string(options.place_min_inlier_ratio));
+
+  t0 = std::chrono::steady_clock::now();
+  const Sim3RefineResult refine = RefineSim3(A, B, matches, &rs.inliers, rs.transform, options);
+  r.seconds_refine = Since(t0);
+  if (!refine.ok) return Reject(r, "refinement failed: " + refine.message);
+  r.S_bf = refine.S_bf;
+  r.refine_initial_rmse_px = refine.initial_rmse_px;
+  r.refine_final_rmse_px = refine.final_rmse_px;
+  if (!(refine.final_rmse_px <= options.place_max_rmse_px))
+    return Reject(r, "refined reprojection RMSE " + std::to_string(refine.final_rmse_px) + " px > " +
+                         std::to_string(options.place_max_rmse_px));
+  // The refined Sim(3) must still hold the RANSAC's support.
+  std::vector<char> inliers(matches.size(), 0);
+  int kept = 0;
+  for (size_t i = 0; i < matches.size(); ++i)
+    if (rs.inliers[i] && (r.S_bf * src[i] - dst[i]).norm() < threshold) inliers[i] = 1, ++kept;
+  if (kept < options.place_min_inliers)
+    return Reject(r, "refined Sim(3) keeps " + std::to_string(kept) + " inliers");
+  r.inliers = kept;
+
+  std::vector<int64_t> matched;
+  for (size_t i = 0; i < matches.size(); ++i)
+    if (inliers[i]) matched.push_back(matches[i].front_point_id);
+  CommitMerge(map, a, b, matches, inliers, threshold, SeedKeyframes(A, matched, 10), options, &r);
+  r.merged = true;
+  spdlog::info(
+      "place merge {} with {} ({} side moved): {} descriptor matches, {} inliers ({:.2f}), scale {:.4f}, refine rmse "
+      "{:.2f} -> {:.2f} px, {} fused, welding {} kf {:.2f} -> {:.2f} px",
+      ToString(r.front), ToString(r.back), r.front_moved ? "first" : "second", r.common_points, r.inliers,
+      r.inlier_ratio, r.S_bf.scale(), r.refine_initial_rmse_px, r.refine_final_rmse_px, r.fused_points,
+      r.welding.window_keyframes, r.welding.initial_rmse_px, r.welding.final_rmse_px);
+  return r;
+}
+
+std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& options) {
+  std::vector<MergeReport> reports;
+  if (!options.place_merge) return reports;
+  std::vector<std::pair<int, int>> tried;  // data unchanged: no retry
+  for (bool progress = true; progress;) {
+    progress = false;
+    for (int i = 0; i < int(map->size()); ++i) {
+      if (map->submap(i).source != SubmapSource::kFront) continue;
+      for (int j = i + 1; j < int(map->size()); ++j) {
+        if (map->submap(j).source != SubmapSource::kFront || map->Connected(i, j)) continue;
+        if (std::find(tried.begin(), tried.end(), std::make_pair(i, j)) != tried.end()) continue;
+        tried.emplace_back(i, j);
+        reports.push_back(PlaceMergePair(map, i, j, options));
+        progress |= reports.back().merged;
+      }
+    }
+  }
+  return reports;
+}
+
+}  // namespace rumi

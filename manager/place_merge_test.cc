@@ -1,0 +1,160 @@
+#include "manager/place_merge.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "manager/synthetic_submaps.h"
+
+namespace rumi {
+namespace {
+
+// One random ORB-like descriptor per scene point.
+std::vector<cv::Mat> SceneDescriptors(size_t n, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::vector<cv::Mat> d(n);
+  for (auto& m : d) {
+    m = cv::Mat(1, 32, CV_8U);
+    for (int j = 0; j < 32; ++j) m.at<uint8_t>(0, j) = uint8_t(rng() & 0xff);
+  }
+  return d;
+}
+
+// Each map point gets its scene point's descriptor with `flips` random bits
+// flipped (another view of the same corner).
+void AttachDescriptors(SyntheticSubmap* s, const std::vector<cv::Mat>& scene_desc, int flips, uint32_t seed) {
+  std::mt19937 rng(seed);
+  for (size_t i = 0; i < s->submap.points.size(); ++i) {
+    cv::Mat d = scene_desc[s->scene_point[i]].clone();
+    for (int k = 0; k < flips; ++k) {
+      const int bit = int(rng() % 256);
+      d.at<uint8_t>(0, bit / 8) ^= uint8_t(1 << (bit % 8));
+    }
+    s->submap.points[i].descriptor = d;
+  }
+}
+
+SyntheticSubmap Front(const SyntheticScene& scene, int64_t id, int first, int last, const Sim3& S, uint32_t seed) {
+  SyntheticSubmapOptions o;
+  o.id = id;
+  o.first_frame = first;
+  o.last_frame = last;
+  o.keyframe_step = 2;
+  o.S_lw = S;
+  o.max_octave = 3;
+  o.pose_noise_m = 0.01;
+  o.pose_noise_rad = 0.002;
+  o.point_id_offset = 1000000 * (id + 1);
+  o.seed = seed;
+  return MakeSyntheticSubmap(scene, o);
+}
+
+struct Fixture {
+  SyntheticScene scene;
+  std::vector<cv::Mat> desc;
+  Sim3 S_aw, S_bw;
+  SyntheticSubmap a, b;
+};
+
+// Two front submaps of one scene in their own Sim(3) frames; no shared
+// timestamp (A: frames 0-40, B: 44-80), but B sees much of what A saw.
+Fixture Make(uint32_t seed) {
+  Fixture f;
+  SyntheticSceneOptions so;
+  so.num_points = 1200;
+  so.seed = seed;
+  f.scene = MakeSyntheticScene(so);
+  f.desc = SceneDescriptors(f.scene.points.size(), seed + 100);
+  f.S_aw = RandomSim3(seed * 7 + 1);
+  f.S_bw = RandomSim3(seed * 7 + 2);
+  f.a = Front(f.scene, 1, 0, 40, f.S_aw, seed * 7 + 3);
+  f.b = Front(f.scene, 2, 44, 80, f.S_bw, seed * 7 + 4);
+  AttachDescriptors(&f.a, f.desc, 20, seed * 7 + 5);
+  AttachDescriptors(&f.b, f.desc, 20, seed * 7 + 6);
+  return f;
+}
+
+TEST(PlaceMerge, MatchesMapPointsOneToOneByDescriptor) {
+  const Fixture f = Make(5);
+  const auto m = MatchMapPoints(f.a.submap, f.b.submap, 50, 0.8);
+  ASSERT_GT(m.size(), 100u);
+  std::unordered_map<int64_t, int> scene_a, scene_b;
+  for (size_t i = 0; i < f.a.submap.points.size(); ++i) scene_a[f.a.submap.points[i].id] = f.a.scene_point[i];
+  for (size_t i = 0; i < f.b.submap.points.size(); ++i) scene_b[f.b.submap.points[i].id] = f.b.scene_point[i];
+  std::set<int64_t> used_b;
+  int right = 0;
+  for (const PointMatch& p : m) {
+    EXPECT_TRUE(used_b.insert(p.back_point_id).second);
+    right += scene_a.at(p.front_point_id) == scene_b.at(p.back_point_id);
+  }
+  EXPECT_EQ(right, int(m.size()));  // random 256-bit descriptors: no confusions
+}
+
+TEST(PlaceMerge, JoinsTwoFrontSubmapsOfOnePlace) {
+  const Fixture f = Make(5);
+  GlobalMap map;
+  const int a = map.AddSubmap(f.a.submap);
+  const int b = map.AddSubmap(f.b.submap);
+  const auto reports = PlaceMergeAll(&map, ManagerOptions());
+  ASSERT_EQ(reports.size(), 1u);
+  const MergeReport& r = reports[0];
+  ASSERT_TRUE(r.merged) << r.reason;
+  EXPECT_TRUE(map.Connected(a, b));
+  EXPECT_GT(r.inlier_ratio, 0.9);
+  EXPECT_LT(r.refine_final_rmse_px, 3.0);
+  // A's frame and B's frame, as the map now relates them, against the truth:
+  // S_gb^-1 * S_ga must be S_bw * S_aw^-1.
+  const Sim3 est = map.ToGlobal(b).Inverse() * map.ToGlobal(a);
+  const Sim3 truth = f.S_bw * f.S_aw.Inverse();
+  EXPECT_NEAR(est.scale() / truth.scale(), 1.0, 0.01);
+  EXPECT_LT(RotationAngle(est.rotation() * truth.rotation().conjugate()), 0.005);
+  // A's keyframe centres land on B's frame within ~1 % of the scene (slab 4-9 m).
+  for (const Keyframe& kf : f.a.submap.keyframes) {
+    const Eigen::Vector3d c = kf.T_wc().translation();
+    EXPECT_LT((est * c - truth * c).norm() / truth.scale(), 0.1);
+  }
+}
+
+// Same descriptors, wrong geometry: B's points are shuffled among its own
+// scene points, so every descriptor match is a lie about where the point is.
+TEST(PlaceMerge, RejectsMatchesWithoutOneSim3) {
+  Fixture f = Make(6);
+  std::mt19937 rng(3);
+  std::vector<Eigen::Vector3d> pos;
+  for (const MapPoint& p : f.b.submap.points) pos.push_back(p.position);
+  std::shuffle(pos.begin(), pos.end(), rng);
+  for (size_t i = 0; i < pos.size(); ++i) f.b.submap.points[i].position = pos[i];
+  GlobalMap map;
+  const int a = map.AddSubmap(f.a.submap);
+  const int b = map.AddSubmap(f.b.submap);
+  const auto reports = PlaceMergeAll(&map, ManagerOptions());
+  ASSERT_EQ(reports.size(), 1u);
+  EXPECT_FALSE(reports[0].merged);
+  EXPECT_GT(reports[0].common_points, 100);  // the descriptors did match
+  EXPECT_NE(reports[0].reason.find("inlier"), std::string::npos) << reports[0].reason;
+  EXPECT_FALSE(map.Connected(a, b));
+  EXPECT_TRUE(map.ToGlobal(a).Matrix().isApprox(Eigen::Matrix4d::Identity()));
+}
+
+TEST(PlaceMerge, OffOrUnrelatedDescriptorsDoNothing) {
+  Fixture f = Make(7);
+  ManagerOptions off;
+  off.place_merge = false;
+  GlobalMap map;
+  map.AddSubmap(f.a.submap);
+  map.AddSubmap(f.b.submap);
+  EXPECT_TRUE(PlaceMergeAll(&map, off).empty());
+  // Another scene's descriptors on B: nothing to match.
+  const auto other = SceneDescriptors(f.scene.points.size(), 999);
+  AttachDescriptors(&f.b, other, 20, 1);
+  GlobalMap map2;
+  map2.AddSubmap(f.a.submap);
+  map2.AddSubmap(f.b.submap);
+  const auto reports = PlaceMergeAll(&map2, ManagerOptions());
+  ASSERT_EQ(reports.size(), 1u);
+  EXPECT_FALSE(reports[0].merged);
+  EXPECT_NE(reports[0].reason.find("too few descriptor matches"), std::string::npos) << reports[0].reason;
+}
+
+}  // namespace
+}  // namespace rumi
