@@ -16,7 +16,6 @@
 #include "common/timestamp.h"
 #include "manager/global_trajectory.h"
 #include "manager/map_file.h"
-#include "manager/place_merge.h"
 
 namespace rumi {
 namespace fs = std::filesystem;
@@ -242,7 +241,7 @@ bool ManagerService::Rebuild(std::string* why) {
   GlobalMap map = CopyWithout(base_, replaced);
   for (const auto& kv : received_) map.AddSubmap(kv.second);
   stats_.reports = MergeAll(&map, options_.manager);
-  for (MergeReport& r : PlaceMergeAll(&map, options_.manager)) stats_.reports.push_back(std::move(r));
+  for (MergeReport& r : PlaceMergeAll(&map, options_.manager, &place_memo_)) stats_.reports.push_back(std::move(r));
   stats_.merge_attempts = int(stats_.reports.size());
   for (const auto& r : stats_.reports) {
     if (r.merged) {

@@ -23,6 +23,7 @@
 #include "manager/global_map.h"
 #include "manager/manager_options.h"
 #include "manager/merge.h"
+#include "manager/place_merge.h"
 #include "manager/post_culling.h"
 
 namespace rumi {
@@ -89,6 +90,7 @@ class ManagerService {
   ManagerServiceOptions options_;
   GlobalMap base_;  // reloaded at start
   std::map<SubmapKey, Submap> received_;
+  PlaceMergeMemo place_memo_;  // place-merge rejections, kept across rebuilds
   GlobalMap map_;  // current product
   bool dirty_ = false;
   bool raw_dirty_ = false;  // received_ changed since the raw file was written

@@ -146,7 +146,7 @@ MergeReport PlaceMergePair(GlobalMap* map, int a, int b, const ManagerOptions& o
   return r;
 }
 
-std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& options) {
+std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& options, PlaceMergeMemo* memo) {
   std::vector<MergeReport> reports;
   if (!options.place_merge) return reports;
   std::vector<std::pair<int, int>> tried;  // data unchanged: no retry
@@ -158,8 +158,13 @@ std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& opt
         if (map->submap(j).source != SubmapSource::kFront || map->Connected(i, j)) continue;
         if (std::find(tried.begin(), tried.end(), std::make_pair(i, j)) != tried.end()) continue;
         tried.emplace_back(i, j);
+        if (memo && memo->Rejected(map->submap(i), map->submap(j))) continue;
         reports.push_back(PlaceMergePair(map, i, j, options));
-        progress |= reports.back().merged;
+        if (reports.back().merged) {
+          progress = true;
+        } else if (memo) {
+          memo->AddRejected(map->submap(i), map->submap(j));
+        }
       }
     }
   }

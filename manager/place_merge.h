@@ -9,6 +9,8 @@
 // larger side fixed, and the merge then goes on as a back merge does (fuse,
 // welding BA). Strict thresholds: a wrong place merge would bend the map,
 // a missed one only leaves two components.
+#include <set>
+#include <tuple>
 #include <vector>
 
 #include "manager/common_points.h"
@@ -29,8 +31,32 @@ std::vector<PointMatch> MatchMapPoints(const Submap& a, const Submap& b, int max
 // recognition. Reason set when not merged.
 MergeReport PlaceMergePair(GlobalMap* map, int a, int b, const ManagerOptions& options);
 
+// Pairs of submaps already matched without a merge, by content (keyframe and
+// point counts): the manager rebuilds the map every time a submap arrives,
+// and a finished front submap never changes, so with the memo only pairs
+// that involve a grown submap are matched again (O(n) per rebuild, not
+// O(n^2)). A rejection depends only on the two submaps and the options.
+class PlaceMergeMemo {
+ public:
+  bool Rejected(const Submap& a, const Submap& b) const { return rejected_.count(Key(a, b)) > 0; }
+  void AddRejected(const Submap& a, const Submap& b) { rejected_.insert(Key(a, b)); }
+  size_t size() const { return rejected_.size(); }
+
+ private:
+  using SubmapVersion = std::tuple<int, int64_t, size_t, size_t>;  // source, id, keyframes, points
+  static SubmapVersion Version(const Submap& s) {
+    return {int(s.source), s.id, s.keyframes.size(), s.points.size()};
+  }
+  static std::pair<SubmapVersion, SubmapVersion> Key(const Submap& a, const Submap& b) {
+    return {Version(a), Version(b)};
+  }
+  std::set<std::pair<SubmapVersion, SubmapVersion>> rejected_;
+};
+
 // Tries every pair of front submaps in different components, repeating until
-// no merge succeeds. No-op when options.place_merge is off.
-std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& options);
+// no merge succeeds. No-op when options.place_merge is off. With a memo,
+// pairs it holds are skipped and new rejections are added to it.
+std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& options,
+                                       PlaceMergeMemo* memo = nullptr);
 
 }  // namespace rumi

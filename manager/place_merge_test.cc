@@ -136,6 +136,32 @@ TEST(PlaceMerge, RejectsMatchesWithoutOneSim3) {
   EXPECT_TRUE(map.ToGlobal(a).Matrix().isApprox(Eigen::Matrix4d::Identity()));
 }
 
+TEST(PlaceMerge, MemoSkipsPairsRejectedBeforeUntilOneGrows) {
+  Fixture f = Make(6);
+  const auto other = SceneDescriptors(f.scene.points.size(), 999);
+  AttachDescriptors(&f.b, other, 20, 1);  // B cannot match A
+  PlaceMergeMemo memo;
+  GlobalMap map;
+  map.AddSubmap(f.a.submap);
+  map.AddSubmap(f.b.submap);
+  ASSERT_EQ(PlaceMergeAll(&map, ManagerOptions(), &memo).size(), 1u);
+  EXPECT_EQ(memo.size(), 1u);
+  GlobalMap again;  // the next rebuild: same submaps
+  again.AddSubmap(f.a.submap);
+  again.AddSubmap(f.b.submap);
+  EXPECT_TRUE(PlaceMergeAll(&again, ManagerOptions(), &memo).empty());
+  // B resent with more keyframes and now with matching descriptors: tried again, merged.
+  Fixture g = Make(6);
+  g.b.submap.keyframes.push_back(g.b.submap.keyframes.back());
+  g.b.submap.keyframes.back().id += 100000;
+  GlobalMap grown;
+  grown.AddSubmap(g.a.submap);
+  grown.AddSubmap(g.b.submap);
+  const auto reports = PlaceMergeAll(&grown, ManagerOptions(), &memo);
+  ASSERT_EQ(reports.size(), 1u);
+  EXPECT_TRUE(reports[0].merged) << reports[0].reason;
+}
+
 TEST(PlaceMerge, OffOrUnrelatedDescriptorsDoNothing) {
   Fixture f = Make(7);
   ManagerOptions off;
