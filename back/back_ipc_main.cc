@@ -11,14 +11,13 @@
 #include "back/back_submap_builder.h"
 #include "back/window_queue.h"
 #include "common/logging.h"
+#include "common/timestamp.h"
 
 namespace rumi {
 namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
-
-double SecondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 enum class ProducerEnd { kRunning, kClosed, kDied, kNeverAppeared, kStopped };
 const char* ToString(ProducerEnd e) {

@@ -1,6 +1,7 @@
 #pragma once
 // Frame identity: capture time as int64 nanoseconds (design contract). Seconds
 // appear only at the edges (TUM files, COLMAP image names).
+#include <chrono>
 #include <cstdint>
 #include <string>
 
@@ -11,6 +12,11 @@ using Timestamp = int64_t;  // nanoseconds
 constexpr int64_t kNsPerSecond = 1000000000LL;
 
 inline double NsToSeconds(Timestamp ns) { return static_cast<double>(ns) * 1e-9; }
+
+// Wall time for stats and timeouts (steady clock), not frame time.
+inline double SecondsSince(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
 Timestamp SecondsToNs(double seconds);
 
 // Parses a decimal seconds string ("1305031102.175304", "-1.5e-3") to ns

@@ -22,10 +22,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-double SecondsSince(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
-
 // Writes via a temporary file and rename, so a reader never sees half a file.
 template <typename Write>
 bool WriteAtomically(const std::string& path, std::string* why, Write&& write) {

@@ -4,6 +4,7 @@
 #include <chrono>
 
 #include "common/logging.h"
+#include "common/timestamp.h"
 #include "manager/common_points.h"
 #include "manager/sim3_alignment.h"
 #include "manager/sim3_refine.h"
@@ -11,16 +12,14 @@
 
 namespace rumi {
 namespace {
-double Since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
+MergeReport Reject(MergeReport r, const std::string& why) { return RejectMerge(std::move(r), "merge", why); }
+}  // namespace
 
-MergeReport Reject(MergeReport r, const std::string& why) {
+MergeReport RejectMerge(MergeReport r, const char* kind, const std::string& why) {
   r.reason = why;
-  spdlog::info("merge {} <-> {} rejected: {}", ToString(r.front), ToString(r.back), why);
+  spdlog::info("{} {} <-> {} rejected: {}", kind, ToString(r.front), ToString(r.back), why);
   return r;
 }
-}  // namespace
 
 void TransformSubmap(const Sim3& S, Submap* s) {
   for (Keyframe& kf : s->keyframes) kf.T_cw = S.TransformPose(kf.T_wc()).Inverse();
@@ -65,7 +64,7 @@ void CommitMerge(GlobalMap* map, int front, int back, const std::vector<PointMat
     const auto window = WeldingWindow(Fm, seeds, options.welding_min_covisible, options.welding_max_keyframes);
     r.welding = WeldWindow(map, front, back, window, fused, options);
   }
-  r.seconds_weld = Since(t0);
+  r.seconds_weld = SecondsSince(t0);
 }
 
 MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& search, const ManagerOptions& options) {
@@ -94,12 +93,12 @@ MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& sear
   r.inlier_ratio = align.inlier_ratio;
   r.init_method = align.method;
   r.S_bf_initial = align.S_bf;
-  r.seconds_align = Since(t0);
+  r.seconds_align = SecondsSince(t0);
   if (!align.ok) return Reject(r, align.reason);
 
   t0 = std::chrono::steady_clock::now();
   const Sim3RefineResult refine = RefineSim3(F, B, common.matches, &align.inliers, align.S_bf, options);
-  r.seconds_refine = Since(t0);
+  r.seconds_refine = SecondsSince(t0);
   if (!refine.ok) return Reject(r, "refinement failed: " + refine.message);
   r.S_bf = refine.S_bf;
   r.refine_initial_rmse_px = refine.initial_rmse_px;

@@ -41,6 +41,9 @@ MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& sear
 // from all submaps.
 std::vector<MergeReport> MergeAll(GlobalMap* map, const ManagerOptions& options);
 
+// Sets the reason and logs "<kind> A <-> B rejected: why".
+MergeReport RejectMerge(MergeReport r, const char* kind, const std::string& why);
+
 // The common tail of every merge, once r.S_bf (front frame -> back frame) is
 // refined: moves the smaller component, joins the two, fuses the matched
 // inliers that agree within fuse_threshold (back units) and runs the welding

@@ -7,6 +7,7 @@
 #include <opencv2/features2d.hpp>
 
 #include "common/logging.h"
+#include "common/timestamp.h"
 #include "manager/sim3_alignment.h"
 #include "manager/sim3_refine.h"
 #include "manager/submap_index.h"
@@ -14,15 +15,7 @@
 namespace rumi {
 namespace {
 
-double Since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-MergeReport Reject(MergeReport r, const std::string& why) {
-  r.reason = why;
-  spdlog::info("place merge {} <-> {} rejected: {}", ToString(r.front), ToString(r.back), why);
-  return r;
-}
+MergeReport Reject(MergeReport r, const std::string& why) { return RejectMerge(std::move(r), "place merge", why); }
 
 // Descriptor rows of the points that qualify, and their indices.
 cv::Mat PointDescriptors(const Submap& s, std::vector<int>* index) {
@@ -101,7 +94,7 @@ MergeReport PlaceMergePair(GlobalMap* map, int a, int b, const ManagerOptions& o
   if (!(threshold > 0)) return Reject(r, "degenerate scene (all matched points coincide)");
   const RansacSim3Result rs =
       RansacSim3(src, dst, threshold, options.place_ransac_iterations, options.ransac_seed);
-  r.seconds_align = Since(t0);
+  r.seconds_align = SecondsSince(t0);
   if (!rs.ok) return Reject(r, "no Sim(3) from " + std::to_string(matches.size()) + " descriptor matches");
   r.inliers = rs.num_inliers;
   r.inlier_ratio = double(rs.num_inliers) / double(matches.size());
@@ -115,7 +108,7 @@ MergeReport PlaceMergePair(GlobalMap* map, int a, int b, const ManagerOptions& o
 
   t0 = std::chrono::steady_clock::now();
   const Sim3RefineResult refine = RefineSim3(A, B, matches, &rs.inliers, rs.transform, options);
-  r.seconds_refine = Since(t0);
+  r.seconds_refine = SecondsSince(t0);
   if (!refine.ok) return Reject(r, "refinement failed: " + refine.message);
   r.S_bf = refine.S_bf;
   r.refine_initial_rmse_px = refine.initial_rmse_px;
