@@ -210,7 +210,7 @@ TEST(ManagerService, UnmergedSubmapsGetOneTrajectoryEach) {
   EXPECT_EQ(ReadTum(dir / "merged_0.txt").size(), 41u);
   EXPECT_EQ(ReadTum(dir / "merged_1.txt").size(), 41u);
   const auto a = ReadTum(dir / "merged_0.txt"), b = ReadTum(dir / "merged_1.txt");
-  // Equal keyframe counts: the lower map index (front A) comes first, as in merged.txt.
+  // Equal frame and keyframe counts: the lower map index (front A) comes first, as in merged.txt.
   EXPECT_EQ(a.front().t, s.scene.timestamps[0]);
   EXPECT_EQ(b.front().t, s.scene.timestamps[70]);
   EXPECT_EQ(ReadTum(dir / "merged.txt").front().t, a.front().t);
@@ -220,6 +220,49 @@ TEST(ManagerService, UnmergedSubmapsGetOneTrajectoryEach) {
   EXPECT_EQ(svc.stats().components, 1);
   EXPECT_EQ(ReadTum(dir / "merged_0.txt").size(), 111u);
   EXPECT_FALSE(fs::exists(dir / "merged_1.txt"));
+}
+
+// No back submap, but front C (frames 44-80) looks at what front A (0-40)
+// mapped: the place merge joins them, and a pair it rejected is not matched
+// again on the next rebuild while neither submap changes.
+TEST(ManagerService, FrontSubmapsOfOnePlaceArePlaceMerged) {
+  auto s = testing::MakeScenario();
+  SyntheticSubmapOptions c;
+  c.id = 7;
+  c.first_frame = 44;
+  c.last_frame = 80;
+  c.keyframe_step = 2;
+  c.S_lw = RandomSim3(77);
+  c.max_octave = 3;
+  c.point_id_offset = 7000000;
+  c.seed = 78;
+  SyntheticSubmap front_c = MakeSyntheticSubmap(s.scene, c);
+  AttachPointDescriptors(&s.front_a, s.scene.points.size(), 5, 20, 1);
+  AttachPointDescriptors(&front_c, s.scene.points.size(), 5, 20, 2);
+  SyntheticSubmap stranger = front_c;  // the same geometry, another scene's descriptors
+  stranger.submap.id = 8;
+  AttachPointDescriptors(&stranger, s.scene.points.size(), 6, 20, 3);
+
+  TempDir dir;
+  ManagerService svc(Options(dir));
+  std::string why;
+  ASSERT_TRUE(svc.Start(&why)) << why;
+  svc.AddSubmap(s.front_a.submap);
+  svc.AddSubmap(stranger.submap);
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_EQ(svc.stats().components, 2);
+  EXPECT_EQ(svc.stats().merge_attempts, 1);  // A <-> stranger, rejected
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_EQ(svc.stats().merge_attempts, 0);  // remembered
+
+  svc.AddSubmap(front_c.submap);
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_EQ(svc.stats().merges, 1);
+  EXPECT_EQ(svc.stats().components, 2);  // A + C, and the stranger alone
+  const auto merged = ReadTum(dir / "merged.txt");
+  EXPECT_EQ(merged.size(), 41u + 37u);  // frames 0-40 and 44-80
+  EXPECT_EQ(merged.front().t, s.scene.timestamps[0]);
+  EXPECT_EQ(merged.back().t, s.scene.timestamps[80]);
 }
 
 TEST(ManagerService, ResentFrontSubmapReplacesTheEarlierVersion) {

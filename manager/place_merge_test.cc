@@ -9,31 +9,6 @@
 namespace rumi {
 namespace {
 
-// One random ORB-like descriptor per scene point.
-std::vector<cv::Mat> SceneDescriptors(size_t n, uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::vector<cv::Mat> d(n);
-  for (auto& m : d) {
-    m = cv::Mat(1, 32, CV_8U);
-    for (int j = 0; j < 32; ++j) m.at<uint8_t>(0, j) = uint8_t(rng() & 0xff);
-  }
-  return d;
-}
-
-// Each map point gets its scene point's descriptor with `flips` random bits
-// flipped (another view of the same corner).
-void AttachDescriptors(SyntheticSubmap* s, const std::vector<cv::Mat>& scene_desc, int flips, uint32_t seed) {
-  std::mt19937 rng(seed);
-  for (size_t i = 0; i < s->submap.points.size(); ++i) {
-    cv::Mat d = scene_desc[s->scene_point[i]].clone();
-    for (int k = 0; k < flips; ++k) {
-      const int bit = int(rng() % 256);
-      d.at<uint8_t>(0, bit / 8) ^= uint8_t(1 << (bit % 8));
-    }
-    s->submap.points[i].descriptor = d;
-  }
-}
-
 SyntheticSubmap Front(const SyntheticScene& scene, int64_t id, int first, int last, const Sim3& S, uint32_t seed) {
   SyntheticSubmapOptions o;
   o.id = id;
@@ -51,7 +26,6 @@ SyntheticSubmap Front(const SyntheticScene& scene, int64_t id, int first, int la
 
 struct Fixture {
   SyntheticScene scene;
-  std::vector<cv::Mat> desc;
   Sim3 S_aw, S_bw;
   SyntheticSubmap a, b;
 };
@@ -64,13 +38,12 @@ Fixture Make(uint32_t seed) {
   so.num_points = 1200;
   so.seed = seed;
   f.scene = MakeSyntheticScene(so);
-  f.desc = SceneDescriptors(f.scene.points.size(), seed + 100);
   f.S_aw = RandomSim3(seed * 7 + 1);
   f.S_bw = RandomSim3(seed * 7 + 2);
   f.a = Front(f.scene, 1, 0, 40, f.S_aw, seed * 7 + 3);
   f.b = Front(f.scene, 2, 44, 80, f.S_bw, seed * 7 + 4);
-  AttachDescriptors(&f.a, f.desc, 20, seed * 7 + 5);
-  AttachDescriptors(&f.b, f.desc, 20, seed * 7 + 6);
+  AttachPointDescriptors(&f.a, f.scene.points.size(), seed + 100, 20, seed * 7 + 5);
+  AttachPointDescriptors(&f.b, f.scene.points.size(), seed + 100, 20, seed * 7 + 6);
   return f;
 }
 
@@ -138,8 +111,7 @@ TEST(PlaceMerge, RejectsMatchesWithoutOneSim3) {
 
 TEST(PlaceMerge, MemoSkipsPairsRejectedBeforeUntilOneGrows) {
   Fixture f = Make(6);
-  const auto other = SceneDescriptors(f.scene.points.size(), 999);
-  AttachDescriptors(&f.b, other, 20, 1);  // B cannot match A
+  AttachPointDescriptors(&f.b, f.scene.points.size(), 999, 20, 1);  // another scene's: B cannot match A
   PlaceMergeMemo memo;
   GlobalMap map;
   map.AddSubmap(f.a.submap);
@@ -171,8 +143,7 @@ TEST(PlaceMerge, OffOrUnrelatedDescriptorsDoNothing) {
   map.AddSubmap(f.b.submap);
   EXPECT_TRUE(PlaceMergeAll(&map, off).empty());
   // Another scene's descriptors on B: nothing to match.
-  const auto other = SceneDescriptors(f.scene.points.size(), 999);
-  AttachDescriptors(&f.b, other, 20, 1);
+  AttachPointDescriptors(&f.b, f.scene.points.size(), 999, 20, 1);
   GlobalMap map2;
   map2.AddSubmap(f.a.submap);
   map2.AddSubmap(f.b.submap);

@@ -123,6 +123,22 @@ SyntheticSubmap MakeSyntheticSubmap(const SyntheticScene& scene, const Synthetic
   return out;
 }
 
+void AttachPointDescriptors(SyntheticSubmap* s, size_t num_scene_points, uint32_t scene_seed, int flips,
+                            uint32_t seed) {
+  std::mt19937 scene_rng(scene_seed), rng(seed);
+  cv::Mat scene(int(num_scene_points), 32, CV_8U);
+  for (int i = 0; i < scene.rows; ++i)
+    for (int j = 0; j < 32; ++j) scene.at<uint8_t>(i, j) = uint8_t(scene_rng() & 0xff);
+  for (size_t i = 0; i < s->submap.points.size(); ++i) {
+    cv::Mat d = scene.row(s->scene_point[i]).clone();
+    for (int k = 0; k < flips; ++k) {
+      const int bit = int(rng() % 256);
+      d.at<uint8_t>(0, bit / 8) ^= uint8_t(1 << (bit % 8));
+    }
+    s->submap.points[i].descriptor = d;
+  }
+}
+
 Sim3 RandomSim3(uint32_t seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-1.0, 1.0);

@@ -55,6 +55,13 @@ struct SyntheticSubmap {
 
 SyntheticSubmap MakeSyntheticSubmap(const SyntheticScene& scene, const SyntheticSubmapOptions& o);
 
+// ORB-like point descriptors: scene point i has a random 256-bit descriptor
+// drawn from scene_seed, and each submap point gets its scene point's with
+// `flips` random bits flipped (another view of the same corner). Submaps
+// given the same scene_seed can then be matched by descriptor.
+void AttachPointDescriptors(SyntheticSubmap* s, size_t num_scene_points, uint32_t scene_seed, int flips,
+                            uint32_t seed);
+
 // A random similarity with scale in [0.3, 3] and a translation of a few units.
 Sim3 RandomSim3(uint32_t seed);
 
