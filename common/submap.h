@@ -56,6 +56,14 @@ struct FrameRecord {
   Se3 T_wc;  // valid when state == kTracking (or kCoarse)
 };
 
+// A pose of the external pose source (wheel odometry, VIO, a motion-capture
+// stand-in), body -> odometry world, at a frame's capture time. Metric and
+// continuous across tracking losses, so it can join submaps vision cannot.
+struct OdometryPose {
+  Timestamp timestamp = 0;
+  Se3 T_wb;
+};
+
 struct CameraIntrinsics {
   int width = 0, height = 0;
   double fx = 0, fy = 0, cx = 0, cy = 0;  // undistorted pinhole model
@@ -68,6 +76,7 @@ struct Submap {
   std::vector<Keyframe> keyframes;     // sorted by timestamp
   std::vector<MapPoint> points;
   std::vector<FrameRecord> frames;     // front: every frame of this submap
+  std::vector<OdometryPose> odometry;  // front: pose source at its frames (empty without one)
 };
 
 // Removes the points observed by fewer than min_observations keyframes and

@@ -638,6 +638,7 @@ void Front::FinishSubmap(bool keep) {
         if (r.state == TrackingState::kTracking && fr.ref) r.T_wc = (fr.T_c_ref * fr.ref->PoseFollowingParents()).Inverse();
         s.frames.push_back(r);
       }
+      AttachOdometry(&s);
       spdlog::info("front: submap {} finished: {} keyframes, {} points, {} frames", s.id, s.keyframes.size(),
                    s.points.size(), s.frames.size());
       // Link to the next submap (completed when it initialises).
@@ -685,7 +686,15 @@ Submap Front::CurrentSubmap() {
     if (r.state == TrackingState::kTracking && fr.ref) r.T_wc = (fr.T_c_ref * fr.ref->PoseFollowingParents()).Inverse();
     s.frames.push_back(r);
   }
+  AttachOdometry(&s);
   return s;
+}
+
+void Front::AttachOdometry(Submap* s) const {
+  s->odometry.clear();
+  if (poses_.empty()) return;
+  for (const FrameRecord& r : s->frames)
+    if (const auto T = PoseAt(r.timestamp)) s->odometry.push_back({r.timestamp, *T});
 }
 
 }  // namespace rumi

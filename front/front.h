@@ -59,7 +59,9 @@ class Front {
   FrameRecord Track(Timestamp t, const cv::Mat& image);
 
   // External pose source (odometry/IMU body poses in their own world frame),
-  // used to chain submaps in the hierarchical mode and across losses.
+  // used to chain submaps in the hierarchical mode and across losses; the
+  // poses at a submap's frames travel with it (Submap::odometry). Call from
+  // the tracking thread, in time order, before Track() of the frames it covers.
   void AddPosePrior(Timestamp t, const Se3& T_wb);
   void SetFrameCallback(FrameCallback cb) { callback_ = std::move(cb); }
 
@@ -93,6 +95,8 @@ class Front {
   void StartNewSubmap(bool keep);
   void FinishSubmap(bool keep);
   std::optional<Se3> PoseAt(Timestamp t) const;
+  // The pose source at the submap's frames (the manager's odometry merge).
+  void AttachOdometry(Submap* s) const;
   FrameRecord MakeRecord() const;
 
   FrontOptions options_;

@@ -153,6 +153,14 @@ TEST(FrontLoss, HierarchicalCoarseStateChainsSubmapsByPosePrior) {
   const Se3 expect = gt[l.t_from].Inverse() * gt[l.t_to];
   EXPECT_LT((l.T_from_to.translation() - expect.translation()).norm(), 1e-6);
   EXPECT_GT(l.T_from_to.translation().norm(), 3.0);  // the car moved on meanwhile
+  // Each submap carries the pose source at its frames (the manager's odometry merge).
+  for (const Submap& s : front.FinishedSubmaps()) {
+    ASSERT_EQ(s.odometry.size(), s.frames.size()) << "submap " << s.id;
+    for (size_t i = 0; i < s.frames.size(); ++i) {
+      EXPECT_EQ(s.odometry[i].timestamp, s.frames[i].timestamp);
+      EXPECT_LT((s.odometry[i].T_wb.translation() - gt[s.frames[i].timestamp].translation()).norm(), 1e-9);
+    }
+  }
 }
 
 }  // namespace

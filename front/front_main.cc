@@ -69,9 +69,12 @@ int Main(int argc, char** argv) {
   app.add_flag("--no-pace", no_pace, "feed frames as fast as possible instead of at capture rate");
   app.add_flag("--sync", sync, "run local mapping inline (deterministic; not realtime)");
   // Pipeline mode (docs/eval.md): replay, ship windows and submaps over shm.
-  std::string instance, rate = "1.0";
+  std::string instance, rate = "1.0", odometry_path;
   double resend_interval_s = 2.0, wait_for_consumers_s = 30.0;
   app.add_option("--instance", instance, "ipc instance: run as the pipeline's front (docs/eval.md); needs --out");
+  app.add_option("--odometry", odometry_path,
+                 "with --instance: TUM file of the robot's pose source (body -> odometry world), sent with "
+                 "the submaps so the manager can join submaps vision cannot (docs/manager.md)");
   app.add_option("--rate", rate, "with --instance: replay at R x the recorded rate, or max");
   app.add_option("--resend-interval", resend_interval_s,
                  "with --instance: seconds between resends of the current submap");
@@ -86,6 +89,7 @@ int Main(int argc, char** argv) {
     pa.out_dir = out_dir;
     pa.instance = instance;
     pa.rate = rate;
+    pa.odometry_path = odometry_path;
     pa.max_frames = max_frames;
     pa.resend_interval_s = resend_interval_s;
     pa.wait_for_consumers_s = wait_for_consumers_s;

@@ -14,6 +14,7 @@
 #include "common/config.h"
 #include "common/dataset.h"
 #include "common/logging.h"
+#include "common/trajectory.h"
 #include "front/frame_replay.h"
 #include "front/front.h"
 #include "front/front_options.h"
@@ -140,6 +141,20 @@ int RunFrontPipeline(const FrontPipelineArgs& a) {
     return 2;
   }
 
+  Trajectory odometry;
+  if (!a.odometry_path.empty()) {
+    try {
+      odometry = ReadTumTrajectory(a.odometry_path);
+    } catch (const std::exception& e) {
+      spdlog::error("--odometry: {}", e.what());
+      return 2;
+    }
+    if (odometry.empty()) {
+      spdlog::error("--odometry {}: no poses", a.odometry_path);
+      return 2;
+    }
+  }
+
   SignalGuard signals(a.install_signal_handlers);
   auto stopped = [&] { return g_signal_stop.load() || (a.stop && a.stop->load()); };
   // FrameReplay polls one flag while it sleeps; mirror both sources into it.
@@ -150,6 +165,8 @@ int RunFrontPipeline(const FrontPipelineArgs& a) {
     FrontPublisher pub(popt, cfg.ipc, cfg.sampler, source->camera().options());
     spdlog::info("front pipeline: {} frames ({}), instance {}, rate {}, out {}", source->size(), a.dataset_path,
                  a.instance, ropt.max ? std::string("max") : std::to_string(ropt.rate), a.out_dir);
+    if (!odometry.empty())
+      spdlog::info("front pipeline: pose source {} ({} poses)", a.odometry_path, odometry.size());
     // Polls the external flags while the replay sleeps.
     struct StopClock : SteadyReplayClock {
       std::function<bool()> stopped;
@@ -169,7 +186,7 @@ int RunFrontPipeline(const FrontPipelineArgs& a) {
     const std::function<Submap()> snapshot = [&front] { return front.CurrentSubmap(); };
     Frame frame;
     std::vector<Timestamp> skipped;
-    size_t n = 0;
+    size_t n = 0, next_odometry = 0;
     for (;;) {
       if (stopped()) stop_flag.store(true);
       skipped.clear();
@@ -180,6 +197,13 @@ int RunFrontPipeline(const FrontPipelineArgs& a) {
         ++n;
       }
       if (!got || stopped() || (a.max_frames > 0 && n >= static_cast<size_t>(a.max_frames))) break;
+      // The pose source as a robot would deliver it: every pose up to the
+      // frame and the next one, so the frame's pose can be interpolated.
+      while (next_odometry < odometry.size() &&
+             (next_odometry == 0 || odometry[next_odometry - 1].t <= frame.timestamp)) {
+        front.AddPosePrior(odometry[next_odometry].t, odometry[next_odometry].T_wc);
+        ++next_odometry;
+      }
       const FrameRecord rec = front.Track(frame.timestamp, frame.image);
       const FrameTiming& tm = front.timings().back();
       pub.OnFrame(rec, frame.image, tm.total_ms, tm.cpu_ms, front.current_submap_keyframes(), front.FinishedSubmaps(),

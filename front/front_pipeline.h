@@ -18,6 +18,7 @@ struct FrontPipelineArgs {
   int max_frames = 0;         // stop after N delivered + skipped frames (0: all)
   double resend_interval_s = 2.0;
   double wait_for_consumers_s = 30.0;
+  std::string odometry_path;  // optional TUM file: external pose source (body -> odometry world)
   std::string log_level;      // overrides the config's log_level when set
   bool install_signal_handlers = true;   // SIGINT/SIGTERM -> stop, write outputs, exit 0
   const std::atomic<bool>* stop = nullptr;  // extra stop request (tests)

@@ -72,6 +72,11 @@ void ExpectSubmapEqual(const Submap& a, const Submap& b) {
     EXPECT_EQ(a.frames[i].submap_id, b.frames[i].submap_id);
     ExpectSe3Exact(a.frames[i].T_wc, b.frames[i].T_wc);
   }
+  ASSERT_EQ(a.odometry.size(), b.odometry.size());
+  for (size_t i = 0; i < a.odometry.size(); ++i) {
+    EXPECT_EQ(a.odometry[i].timestamp, b.odometry[i].timestamp);
+    ExpectSe3Exact(a.odometry[i].T_wb, b.odometry[i].T_wb);
+  }
 }
 
 void ExpectWindowEqual(const ImageWindow& a, const ImageWindow& b) {
@@ -105,6 +110,20 @@ TEST(SubmapCodec, RoundTripIsExact) {
     // Re-encoding the decoded submap gives the same bytes.
     EXPECT_EQ(EncodeSubmap(out), bytes);
   }
+}
+
+TEST(SubmapCodec, OdometryIsOptional) {
+  Submap s = MakeSubmap(3);
+  ASSERT_FALSE(s.odometry.empty());
+  const size_t with = EncodedSubmapSize(s);
+  s.odometry.clear();
+  const auto bytes = EncodeSubmap(s);
+  EXPECT_LT(bytes.size(), with);  // no ODOM section at all without a pose source
+  Submap out = MakeSubmap(4);
+  std::string err;
+  ASSERT_TRUE(DecodeSubmap(bytes.data(), bytes.size(), &out, &err)) << err;
+  EXPECT_TRUE(out.odometry.empty());
+  ExpectSubmapEqual(s, out);
 }
 
 TEST(SubmapCodec, EmptySubmapAndEmptyMatsKeepType) {

@@ -133,4 +133,11 @@ const Section& FindSection(const std::vector<Section>& sections, uint32_t tag, c
   throw CodecError(what + ": section '" + FourCcString(tag) + "' missing");
 }
 
+const Section* FindOptionalSection(const std::vector<Section>& sections, uint32_t tag) {
+  for (const Section& s : sections) {
+    if (s.tag == tag) return &s;
+  }
+  return nullptr;
+}
+
 }  // namespace rumi

@@ -82,5 +82,7 @@ std::vector<Section> ParseEnvelope(const uint8_t* data, size_t n, uint32_t kind,
 // The first section with this tag; throws when missing.
 const Section& FindSection(const std::vector<Section>& sections, uint32_t tag,
                            const std::string& what);
+// nullptr when absent (sections added to a format after version 1).
+const Section* FindOptionalSection(const std::vector<Section>& sections, uint32_t tag);
 
 }  // namespace rumi

@@ -12,6 +12,9 @@ constexpr uint32_t kHead = FourCc("HEAD");
 constexpr uint32_t kKeyframes = FourCc("KFRM");
 constexpr uint32_t kPoints = FourCc("PNTS");
 constexpr uint32_t kFrames = FourCc("FRMS");
+// Optional (written only when the submap has odometry; readers without it
+// skip the section): the pose source at the submap's frames.
+constexpr uint32_t kOdometry = FourCc("ODOM");
 
 template <typename W>
 void PutSe3(W& w, const Se3& T) {
@@ -94,6 +97,16 @@ void EncodeBody(W& w, const Submap& s) {
     PutSe3(w, f.T_wc);
   }
   EndSection(w, at);
+
+  if (!s.odometry.empty()) {
+    at = BeginSection(w, kOdometry);
+    w.template Put<uint64_t>(s.odometry.size());
+    for (const OdometryPose& o : s.odometry) {
+      w.template Put<int64_t>(o.timestamp);
+      PutSe3(w, o.T_wb);
+    }
+    EndSection(w, at);
+  }
 }
 
 void CheckEnd(const BufferReader& r) {
@@ -203,6 +216,16 @@ bool DecodeSubmap(const uint8_t* data, size_t size, Submap* out, std::string* er
         if (st > static_cast<uint8_t>(TrackingState::kCoarse)) r.Fail("unknown tracking state " + std::to_string(st));
         f.state = static_cast<TrackingState>(st);
         f.T_wc = GetSe3(r);
+      }
+      CheckEnd(r);
+    }
+    if (const Section* sec = FindOptionalSection(sections, kOdometry)) {
+      BufferReader r(sec->data, sec->size, what + " ODOM");
+      const uint64_t n = r.GetCount(64, "odometry pose");
+      s.odometry.resize(n);
+      for (OdometryPose& o : s.odometry) {
+        o.timestamp = r.Get<int64_t>();
+        o.T_wb = GetSe3(r);
       }
       CheckEnd(r);
     }

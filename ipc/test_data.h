@@ -84,6 +84,7 @@ inline Submap MakeSubmap(int64_t id, int keyframes = 6, int points = 40, int fra
     fr.submap_id = id;
     fr.T_wc = pose();
     s.frames.push_back(fr);
+    if (f % 2 == 0) s.odometry.push_back({fr.timestamp, pose()});  // the pose source may skip frames
   }
   return s;
 }

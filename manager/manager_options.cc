@@ -43,6 +43,14 @@ bool ManagerOptions::Check(std::string* why) const {
   if (!(place_min_inlier_ratio >= 0 && place_min_inlier_ratio < 1))
     return Fail(why, "place_min_inlier_ratio must be in [0, 1)");
   if (!(place_max_rmse_px > 0)) return Fail(why, "place_max_rmse_px must be > 0");
+  if (!(odometry_window_s > 0)) return Fail(why, "odometry_window_s must be > 0");
+  if (odometry_min_frames < 3) return Fail(why, "odometry_min_frames must be >= 3");
+  if (!(odometry_min_path_m > 0)) return Fail(why, "odometry_min_path_m must be > 0");
+  if (!(odometry_max_residual > 0 && odometry_max_residual <= 1))
+    return Fail(why, "odometry_max_residual must be in (0, 1]");
+  if (!(odometry_max_rotation_deg > 0 && odometry_max_rotation_deg <= 180))
+    return Fail(why, "odometry_max_rotation_deg must be in (0, 180]");
+  if (!(odometry_max_gap_s >= 0)) return Fail(why, "odometry_max_gap_s must be >= 0");
   return true;
 }
 
@@ -80,6 +88,13 @@ void ReadOptions(ConfigSection& s, ManagerOptions* o) {
   s.ReadInRange("place_min_inliers", &o->place_min_inliers, 3, 1000000);
   s.ReadInRange("place_min_inlier_ratio", &o->place_min_inlier_ratio, 0.0, 0.99);
   s.ReadInRange("place_max_rmse_px", &o->place_max_rmse_px, 1e-3, 1000.0);
+  s.Read("odometry_merge", &o->odometry_merge);
+  s.ReadInRange("odometry_window_s", &o->odometry_window_s, 0.1, 3600.0);
+  s.ReadInRange("odometry_min_frames", &o->odometry_min_frames, 3, 1000000);
+  s.ReadInRange("odometry_min_path_m", &o->odometry_min_path_m, 1e-3, 1e6);
+  s.ReadInRange("odometry_max_residual", &o->odometry_max_residual, 1e-3, 1.0);
+  s.ReadInRange("odometry_max_rotation_deg", &o->odometry_max_rotation_deg, 0.01, 180.0);
+  s.ReadInRange("odometry_max_gap_s", &o->odometry_max_gap_s, 0.0, 1e6);
   std::string why;
   if (!o->Check(&why)) throw ConfigError(s.file() + ": section 'manager': " + why);
 }

@@ -79,6 +79,23 @@ struct ManagerOptions {
   int place_min_inliers = 40;
   double place_min_inlier_ratio = 0.25;
   double place_max_rmse_px = 3.0;
+  // Odometry merge (manager/odometry_merge.h): front submaps still apart
+  // after the visual merges, consecutive in time and at most
+  // odometry_max_gap_s apart, are joined through the pose source they carry.
+  // Each side's Sim(3) into the odometry frame is fitted on its tracked frames
+  // within odometry_window_s of the gap (at least odometry_min_frames, the
+  // odometry moving at least odometry_min_path_m so the scale is observable);
+  // a fit is refused when its position residual exceeds
+  // odometry_max_residual times the spread of the positions or its rotation
+  // residual exceeds odometry_max_rotation_deg. The pose source must give
+  // camera poses (extrinsics applied upstream).
+  bool odometry_merge = true;
+  double odometry_window_s = 3.0;
+  int odometry_min_frames = 10;
+  double odometry_min_path_m = 0.1;
+  double odometry_max_residual = 0.15;
+  double odometry_max_rotation_deg = 3.0;
+  double odometry_max_gap_s = 10.0;
 
   bool Check(std::string* why = nullptr) const;
 };

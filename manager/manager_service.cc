@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include "common/timestamp.h"
+#include "manager/odometry_merge.h"
 #include "manager/global_trajectory.h"
 #include "manager/map_file.h"
 
@@ -238,6 +239,7 @@ bool ManagerService::Rebuild(std::string* why) {
   for (const auto& kv : received_) map.AddSubmap(kv.second);
   stats_.reports = MergeAll(&map, options_.manager);
   for (MergeReport& r : PlaceMergeAll(&map, options_.manager, &place_memo_)) stats_.reports.push_back(std::move(r));
+  for (MergeReport& r : OdometryMergeAll(&map, options_.manager)) stats_.reports.push_back(std::move(r));
   stats_.merge_attempts = int(stats_.reports.size());
   for (const auto& r : stats_.reports) {
     if (r.merged) {

@@ -17,6 +17,7 @@
 #include "manager/manager_service.h"
 #include "manager/map_file.h"
 #include "manager/merge.h"
+#include "manager/odometry_merge.h"
 #include "manager/place_merge.h"
 #include "manager/post_culling.h"
 
@@ -77,6 +78,7 @@ int Main(int argc, char** argv) {
   }
   auto reports = MergeAll(&map, config.manager);
   for (MergeReport& r : PlaceMergeAll(&map, config.manager)) reports.push_back(std::move(r));
+  for (MergeReport& r : OdometryMergeAll(&map, config.manager)) reports.push_back(std::move(r));
   for (const MergeReport& r : reports) {
     std::cout << fmt::format(
         "{} + {}: merged={} keyframe_pairs={} frame_pairs={} common_points={} inliers={} inlier_ratio={:.3f} "

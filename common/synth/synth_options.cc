@@ -71,6 +71,10 @@ bool SynthOptions::Check(std::string* why) const {
   if (!(dark_gain >= 0 && dark_gain <= 1)) return fail("dark_gain must be in [0, 1]");
   if (!(weak_distance >= 0.5 && weak_distance <= 2.0)) return fail("weak_distance must be in [0.5, 2]");
   if (!(weak_amplitude >= 0 && weak_amplitude <= 0.3)) return fail("weak_amplitude must be in [0, 0.3]");
+  if (!(std::abs(odometry_scale_bias) <= 0.5)) return fail("odometry_scale_bias must be in [-0.5, 0.5]");
+  if (!(odometry_step_noise >= 0 && odometry_step_noise <= 1)) return fail("odometry_step_noise must be in [0, 1]");
+  if (!(odometry_rotation_noise_deg >= 0 && odometry_rotation_noise_deg <= 10))
+    return fail("odometry_rotation_noise_deg must be in [0, 10]");
   if (scenario != SynthScenario::kSmooth) {
     const int s = HardStart(), l = HardLength();
     if (l < 1) return fail("hard_length must be >= 1");
@@ -104,6 +108,9 @@ void ReadOptions(ConfigSection& s, SynthOptions* o) {
   s.ReadInRange("dark_gain", &o->dark_gain, 0.0, 1.0);
   s.ReadInRange("weak_distance", &o->weak_distance, 0.5, 2.0);
   s.ReadInRange("weak_amplitude", &o->weak_amplitude, 0.0, 0.3);
+  s.ReadInRange("odometry_scale_bias", &o->odometry_scale_bias, -0.5, 0.5);
+  s.ReadInRange("odometry_step_noise", &o->odometry_step_noise, 0.0, 1.0);
+  s.ReadInRange("odometry_rotation_noise_deg", &o->odometry_rotation_noise_deg, 0.0, 10.0);
   CheckOptions(*o, s, "synth");
 }
 

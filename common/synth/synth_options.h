@@ -47,6 +47,11 @@ struct SynthOptions {
   double dark_gain = 0.1;             // dark: exposure gain at the bottom
   double drop_turn_deg = -45.0;       // drop: turn (deg, + left) while frames are missing, then back
   double weak_distance = 1.0;         // weak: distance to the plain wall
+  // odometry.txt (the robot's pose source, for `--odometry`): ground truth
+  // integrated through noisy steps, so it drifts like wheel odometry.
+  double odometry_scale_bias = 0.02;      // every step's length x (1 + bias)
+  double odometry_step_noise = 0.05;      // per-axis sigma, fraction of the step length
+  double odometry_rotation_noise_deg = 0.1;   // per-axis sigma per frame (random walk)
   double weak_amplitude = 0.06;       // weak / corridor turn: albedo amplitude left
 
   bool Check(std::string* why = nullptr) const;

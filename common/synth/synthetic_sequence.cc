@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <random>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -450,6 +451,44 @@ void WriteTextFile(const std::filesystem::path& path, const std::string& text) {
 
 }  // namespace
 
+namespace {
+
+// The robot's pose source: every frame's ground-truth step (dropped frames
+// too: odometry does not stop with the Wi-Fi) with a scale bias, per-axis
+// translation noise proportional to the step and rotation noise, integrated.
+// Its own random stream, so the images do not depend on it.
+std::string FormatOdometry(const SyntheticSequence& seq, const SynthOptions& o) {
+  std::mt19937_64 rng(o.seed * 0x9E3779B97F4A7C15ull + 0x0D0Full);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  std::ostringstream od;
+  od << "# synthetic odometry body(=camera)->odometry world, TUM format: ground-truth steps with scale bias "
+     << FormatDouble(o.odometry_scale_bias) << ", step noise " << FormatDouble(o.odometry_step_noise)
+     << ", rotation noise " << FormatDouble(o.odometry_rotation_noise_deg) << " deg/frame\n"
+     << "# timestamp tx ty tz qx qy qz qw\n";
+  Se3 T = seq.T_wc(0);
+  for (int i = 0; i < seq.num_frames(); ++i) {
+    if (i > 0) {
+      const Se3 step = seq.T_wc(i - 1).Inverse() * seq.T_wc(i);
+      const double len = step.translation().norm();
+      Eigen::Vector3d t = step.translation() * (1.0 + o.odometry_scale_bias);
+      Eigen::Vector3d w;
+      for (int k = 0; k < 3; ++k) t[k] += o.odometry_step_noise * len * n01(rng);
+      for (int k = 0; k < 3; ++k) w[k] = o.odometry_rotation_noise_deg * kDeg * n01(rng);
+      const double angle = w.norm();
+      const Eigen::Vector3d axis = angle > 0 ? Eigen::Vector3d(w / angle) : Eigen::Vector3d::UnitX();
+      T = T * Se3(step.rotation() * Eigen::Quaterniond(Eigen::AngleAxisd(angle, axis)), t);
+    }
+    const Eigen::Quaterniond& q = T.rotation();
+    const Eigen::Vector3d& p = T.translation();
+    od << FormatSeconds(seq.timestamp(i)) << ' ' << FormatDouble(p.x()) << ' ' << FormatDouble(p.y()) << ' '
+       << FormatDouble(p.z()) << ' ' << FormatDouble(q.x()) << ' ' << FormatDouble(q.y()) << ' '
+       << FormatDouble(q.z()) << ' ' << FormatDouble(q.w()) << '\n';
+  }
+  return od.str();
+}
+
+}  // namespace
+
 SynthWriteResult SynthesizeSequence(const SynthOptions& options, const std::string& out_dir) {
   namespace fs = std::filesystem;
   const SyntheticSequence seq(options);
@@ -488,6 +527,7 @@ SynthWriteResult SynthesizeSequence(const SynthOptions& options, const std::stri
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   WriteTextFile(out / "rgb.txt", rgb.str());
   WriteTextFile(out / "groundtruth.txt", gt.str());
+  WriteTextFile(out / "odometry.txt", FormatOdometry(seq, options));
 
   const PinholeCameraOptions& c = seq.camera();
   std::ostringstream cam;

@@ -48,6 +48,7 @@ struct EvalRunArgs {
   std::string out;
   std::string sequence;
   bool no_back = false;
+  std::string odometry;  // optional pose source handed to rumi-front
   double timeout_s = 0;  // 0: 600 s + 20 x the sequence duration / rate
   std::string bin_dir;   // default: the folder of this executable
 };
@@ -504,6 +505,7 @@ int RunEval(const EvalRunArgs& a) {
                                              rate > 0 ? a.rate : std::string("max")};
       // Front alone: no consumer will ever attach, so don't wait for one at the end.
       if (a.no_back) front_args.insert(front_args.end(), {"--wait-for-consumers", "0"});
+      if (!a.odometry.empty()) front_args.insert(front_args.end(), {"--odometry", a.odometry});
       children.push_back(Spawn("rumi-front", with_config(front_args),
                                (run_dir / "rumi-front.log").string(), &pgid));
     } catch (const std::exception& e) {
@@ -552,6 +554,10 @@ void AddEvalRunCommand(CLI::App* eval) {
   cmd->add_option("--out", a->out, "output folder (default eval_<sequence>)");
   cmd->add_option("--sequence", a->sequence, "sequence name in metrics.json (default: folder name)");
   cmd->add_flag("--no-back", a->no_back, "run the front alone (merged = front)");
+  cmd->add_option("--odometry", a->odometry,
+                  "TUM file of a pose source (robot odometry; `rumi synth` writes odometry.txt) for the "
+                  "front: the manager then also joins submaps by it; default: vision only")
+      ->check(CLI::ExistingFile);
   cmd->add_option("--timeout", a->timeout_s,
                   "seconds per run before the processes are killed (default 600 + 20 x replay time)")
       ->check(CLI::NonNegativeNumber);
