@@ -265,6 +265,43 @@ TEST(ManagerService, FrontSubmapsOfOnePlaceArePlaceMerged) {
   EXPECT_EQ(merged.back().t, s.scene.timestamps[80]);
 }
 
+TEST(ManagerService, FrontSubmapsWithOdometryAreJoinedUntilTheBackArrives) {
+  auto s = testing::MakeScenario();
+  const Se3 T_ow(Eigen::Quaterniond(Eigen::AngleAxisd(-1.1, Eigen::Vector3d::UnitZ())), Eigen::Vector3d(1, 2, 0));
+  AttachSyntheticOdometry(s.scene, T_ow, 0.01, 0.005, 1, &s.front_a.submap);
+  AttachSyntheticOdometry(s.scene, T_ow, 0.01, 0.005, 2, &s.front_b.submap);
+  TempDir dir;
+  ManagerService svc(Options(dir));
+  std::string why;
+  ASSERT_TRUE(svc.Start(&why)) << why;
+  svc.AddSubmap(s.front_a.submap);
+  svc.AddSubmap(s.front_b.submap);
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_EQ(svc.stats().merges, 1);  // frames 0-40 and 70-110 share nothing but the pose source
+  ASSERT_EQ(svc.stats().reports.size(), 2u);  // the place merge refuses, the odometry merge joins
+  EXPECT_EQ(svc.stats().reports[1].init_method, "odometry");
+  EXPECT_TRUE(svc.stats().reports[1].merged);
+  const auto rows = ReadTum(dir / "merged.txt");
+  ASSERT_EQ(rows.size(), 41u + 41u);
+  std::vector<Eigen::Vector3d> est, truth;
+  for (const TumRow& r : rows) {
+    const auto it = std::find(s.scene.timestamps.begin(), s.scene.timestamps.end(), r.t);
+    ASSERT_NE(it, s.scene.timestamps.end());
+    est.push_back(r.p);
+    truth.push_back(s.scene.T_wc[it - s.scene.timestamps.begin()].translation());
+  }
+  const UmeyamaResult u = UmeyamaAlign(est, truth, true);
+  ASSERT_TRUE(u.ok);
+  EXPECT_LT(u.rmse, 0.06);  // 1 cm pose noise, 1 % odometry bias over ~11 m
+
+  // The back arrives: image evidence joins everything, the odometry merge has nothing left to do.
+  svc.AddSubmap(s.back.submap);
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_EQ(svc.stats().merges, 2);
+  EXPECT_EQ(svc.stats().components, 1);
+  for (const MergeReport& r : svc.stats().reports) EXPECT_NE(r.init_method, "odometry") << ToString(r.front);
+}
+
 TEST(ManagerService, ResentFrontSubmapReplacesTheEarlierVersion) {
   const uint32_t seed = 3;
   const auto s = testing::MakeScenario(seed);

@@ -2,30 +2,13 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include "manager/synthetic_submaps.h"
 
 namespace rumi {
 namespace {
-
-// The robot's pose source over a submap's frames: the ground-truth camera
-// poses in an odometry frame of their own (T_ow), each step's length off by
-// `bias` and the positions jittered by `noise_m`.
-void AttachOdometry(const SyntheticScene& scene, const Se3& T_ow, double bias, double noise_m, uint32_t seed,
-                    Submap* s) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> n(0.0, noise_m);
-  s->odometry.clear();
-  for (const FrameRecord& f : s->frames) {
-    const auto it = std::find(scene.timestamps.begin(), scene.timestamps.end(), f.timestamp);
-    ASSERT_NE(it, scene.timestamps.end());
-    const Se3 T = T_ow * scene.T_wc[it - scene.timestamps.begin()];
-    const Eigen::Vector3d drift = bias * (T.translation() - T_ow * scene.T_wc[0].translation());
-    s->odometry.push_back({f.timestamp, Se3(T.rotation(), T.translation() + drift +
-                                                               Eigen::Vector3d(n(rng), n(rng), n(rng)))});
-  }
-}
 
 SyntheticSubmap Front(const SyntheticScene& scene, int64_t id, int first, int last, const Sim3& S, uint32_t seed) {
   SyntheticSubmapOptions o;
@@ -48,7 +31,7 @@ TEST(OdometryMerge, FitRecoversTheSubmapToOdometrySim3) {
   const SyntheticScene scene = MakeSyntheticScene({});
   const Sim3 S_aw = RandomSim3(11);
   SyntheticSubmap a = Front(scene, 0, 0, 40, S_aw, 3);
-  AttachOdometry(scene, kT_ow, 0.0, 0.01, 5, &a.submap);
+  AttachSyntheticOdometry(scene, kT_ow, 0.0, 0.01, 5, &a.submap);
   ManagerOptions o;
   std::string why;
   const auto fit = FitOdometry(a.submap, 0, scene.timestamps[40], o, &why);
@@ -79,7 +62,7 @@ TEST(OdometryMerge, FitRefusesWhatCannotGiveAScale) {
   EXPECT_FALSE(FitOdometry(a.submap, 0, scene.timestamps[40], o, &why));  // no odometry at all
   EXPECT_NE(why.find("0 tracked frames with odometry"), std::string::npos) << why;
 
-  AttachOdometry(scene, kT_ow, 0.0, 0.0, 6, &a.submap);
+  AttachSyntheticOdometry(scene, kT_ow, 0.0, 0.0, 6, &a.submap);
   EXPECT_FALSE(FitOdometry(a.submap, scene.timestamps[36], scene.timestamps[40], o, &why));  // 5 frames
   EXPECT_NE(why.find("< 10"), std::string::npos) << why;
 
@@ -125,8 +108,8 @@ Drive MakeDrive(double bias) {
   d.S_bw = RandomSim3(22);
   SyntheticSubmap a = Front(d.scene, 0, 0, 40, d.S_aw, 7);
   SyntheticSubmap b = Front(d.scene, 1, 59, 110, d.S_bw, 8);
-  AttachOdometry(d.scene, kT_ow, bias, 0.005, 11, &a.submap);
-  AttachOdometry(d.scene, kT_ow, bias, 0.005, 12, &b.submap);
+  AttachSyntheticOdometry(d.scene, kT_ow, bias, 0.005, 11, &a.submap);
+  AttachSyntheticOdometry(d.scene, kT_ow, bias, 0.005, 12, &b.submap);
   d.a = d.map.AddSubmap(a.submap);
   d.b = d.map.AddSubmap(b.submap);
   return d;

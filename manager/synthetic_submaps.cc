@@ -139,6 +139,21 @@ void AttachPointDescriptors(SyntheticSubmap* s, size_t num_scene_points, uint32_
   }
 }
 
+void AttachSyntheticOdometry(const SyntheticScene& scene, const Se3& T_ow, double bias, double noise_m,
+                             uint32_t seed, Submap* s) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0.0, noise_m);
+  const Eigen::Vector3d origin = T_ow * scene.T_wc[0].translation();
+  s->odometry.clear();
+  for (const FrameRecord& f : s->frames) {
+    const auto it = std::find(scene.timestamps.begin(), scene.timestamps.end(), f.timestamp);
+    if (it == scene.timestamps.end()) continue;
+    const Se3 T = T_ow * scene.T_wc[it - scene.timestamps.begin()];
+    const Eigen::Vector3d p = T.translation() + bias * (T.translation() - origin) + Eigen::Vector3d(n(rng), n(rng), n(rng));
+    s->odometry.push_back({f.timestamp, Se3(T.rotation(), p)});
+  }
+}
+
 Sim3 RandomSim3(uint32_t seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-1.0, 1.0);

@@ -62,6 +62,13 @@ SyntheticSubmap MakeSyntheticSubmap(const SyntheticScene& scene, const Synthetic
 void AttachPointDescriptors(SyntheticSubmap* s, size_t num_scene_points, uint32_t scene_seed, int flips,
                             uint32_t seed);
 
+// The robot's pose source over a submap's frames (Submap::odometry): the
+// ground-truth camera poses in an odometry frame of their own (T_ow), the
+// displacement from the first scene frame stretched by `bias` and each
+// position jittered by noise_m (per axis).
+void AttachSyntheticOdometry(const SyntheticScene& scene, const Se3& T_ow, double bias, double noise_m,
+                             uint32_t seed, Submap* s);
+
 // A random similarity with scale in [0.3, 3] and a translation of a few units.
 Sim3 RandomSim3(uint32_t seed);
 
