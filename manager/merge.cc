@@ -27,19 +27,23 @@ void TransformSubmap(const Sim3& S, Submap* s) {
   for (FrameRecord& f : s->frames) f.T_wc = S.TransformPose(f.T_wc);
 }
 
+bool JoinComponents(GlobalMap* map, int front, int back, const Sim3& S_bf) {
+  const Sim3 S_gf = map->ToGlobal(front), S_gb = map->ToGlobal(back);
+  const bool front_moved = map->NumKeyframes(map->Component(front)) <= map->NumKeyframes(map->Component(back));
+  if (front_moved) {
+    map->MoveComponent(front, S_gb * S_bf * S_gf.Inverse());
+  } else {
+    map->MoveComponent(back, S_gf * S_bf.Inverse() * S_gb.Inverse());
+  }
+  map->Union(front, back);
+  return front_moved;
+}
+
 void CommitMerge(GlobalMap* map, int front, int back, const std::vector<PointMatch>& matches,
                  const std::vector<char>& inliers, double fuse_threshold, const std::vector<int64_t>& seeds,
                  const ManagerOptions& options, MergeReport* report) {
   MergeReport& r = *report;
-  // Move the smaller component: S_gb * S_bf = S_gf afterwards.
-  const Sim3 S_gf = map->ToGlobal(front), S_gb = map->ToGlobal(back);
-  r.front_moved = map->NumKeyframes(map->Component(front)) <= map->NumKeyframes(map->Component(back));
-  if (r.front_moved) {
-    map->MoveComponent(front, S_gb * r.S_bf * S_gf.Inverse());
-  } else {
-    map->MoveComponent(back, S_gf * r.S_bf.Inverse() * S_gb.Inverse());
-  }
-  map->Union(front, back);
+  r.front_moved = JoinComponents(map, front, back, r.S_bf);
 
   // Fuse matched inliers that still agree in 3D after refinement: the front
   // duplicate takes the back point's position and is linked to it.

@@ -44,6 +44,11 @@ std::vector<MergeReport> MergeAll(GlobalMap* map, const ManagerOptions& options)
 // Sets the reason and logs "<kind> A <-> B rejected: why".
 MergeReport RejectMerge(MergeReport r, const char* kind, const std::string& why);
 
+// Joins the components of `front` and `back` given S_bf (front's frame ->
+// back's frame): the one with fewer keyframes moves, so that afterwards
+// S_gb * S_bf = S_gf. Returns whether the front side moved.
+bool JoinComponents(GlobalMap* map, int front, int back, const Sim3& S_bf);
+
 // The common tail of every merge, once r.S_bf (front frame -> back frame) is
 // refined: moves the smaller component, joins the two, fuses the matched
 // inliers that agree within fuse_threshold (back units) and runs the welding

@@ -136,15 +136,7 @@ MergeReport OdometryMergePair(GlobalMap* map, int a, int b, const ManagerOptions
   r.inlier_ratio = 1.0;
   r.S_bf_initial = r.S_bf = fb->S_os.Inverse() * fa->S_os;
   r.seconds_align = SecondsSince(t0);
-  // Move the smaller component so that S_gb * S_bf = S_ga afterwards.
-  const Sim3 S_ga = map->ToGlobal(a), S_gb = map->ToGlobal(b);
-  r.front_moved = map->NumPosedFrames(map->Component(a)) <= map->NumPosedFrames(map->Component(b));
-  if (r.front_moved) {
-    map->MoveComponent(a, S_gb * r.S_bf * S_ga.Inverse());
-  } else {
-    map->MoveComponent(b, S_ga * r.S_bf.Inverse() * S_gb.Inverse());
-  }
-  map->Union(a, b);
+  r.front_moved = JoinComponents(map, a, b, r.S_bf);
   r.merged = true;
   spdlog::info(
       "odometry merge {} with {} over a {:.2f} s gap ({} side moved): fits on {} + {} frames, odometry path "

@@ -10,27 +10,13 @@
 namespace rumi {
 namespace {
 
-SyntheticSubmap Front(const SyntheticScene& scene, int64_t id, int first, int last, const Sim3& S, uint32_t seed) {
-  SyntheticSubmapOptions o;
-  o.id = id;
-  o.first_frame = first;
-  o.last_frame = last;
-  o.keyframe_step = 3;
-  o.S_lw = S;
-  o.pose_noise_m = 0.005;
-  o.pose_noise_rad = 0.001;
-  o.point_id_offset = 1000000 * (id + 1);
-  o.seed = seed;
-  return MakeSyntheticSubmap(scene, o);
-}
-
 const Se3 kT_ow(Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.2, 0.3, 1).normalized())),
                 Eigen::Vector3d(5, -2, 0.3));
 
 TEST(OdometryMerge, FitRecoversTheSubmapToOdometrySim3) {
   const SyntheticScene scene = MakeSyntheticScene({});
   const Sim3 S_aw = RandomSim3(11);
-  SyntheticSubmap a = Front(scene, 0, 0, 40, S_aw, 3);
+  SyntheticSubmap a = MakeSyntheticFront(scene, 0, 0, 40, S_aw, 3);
   AttachSyntheticOdometry(scene, kT_ow, 0.0, 0.01, 5, &a.submap);
   ManagerOptions o;
   std::string why;
@@ -56,7 +42,7 @@ TEST(OdometryMerge, FitRecoversTheSubmapToOdometrySim3) {
 
 TEST(OdometryMerge, FitRefusesWhatCannotGiveAScale) {
   const SyntheticScene scene = MakeSyntheticScene({});
-  SyntheticSubmap a = Front(scene, 0, 0, 40, RandomSim3(12), 4);
+  SyntheticSubmap a = MakeSyntheticFront(scene, 0, 0, 40, RandomSim3(12), 4);
   ManagerOptions o;
   std::string why;
   EXPECT_FALSE(FitOdometry(a.submap, 0, scene.timestamps[40], o, &why));  // no odometry at all
@@ -106,8 +92,8 @@ Drive MakeDrive(double bias) {
   d.scene = MakeSyntheticScene({});
   d.S_aw = RandomSim3(21);
   d.S_bw = RandomSim3(22);
-  SyntheticSubmap a = Front(d.scene, 0, 0, 40, d.S_aw, 7);
-  SyntheticSubmap b = Front(d.scene, 1, 59, 110, d.S_bw, 8);
+  SyntheticSubmap a = MakeSyntheticFront(d.scene, 0, 0, 40, d.S_aw, 7);
+  SyntheticSubmap b = MakeSyntheticFront(d.scene, 1, 59, 110, d.S_bw, 8);
   AttachSyntheticOdometry(d.scene, kT_ow, bias, 0.005, 11, &a.submap);
   AttachSyntheticOdometry(d.scene, kT_ow, bias, 0.005, 12, &b.submap);
   d.a = d.map.AddSubmap(a.submap);
@@ -137,7 +123,7 @@ TEST(OdometryMerge, JoinsSubmapsVisionCannotJoin) {
       worst = std::max(worst, (d.map.ToGlobal(s) * f.T_wc.translation() - truth).norm() / S_gw.scale());
     }
   }
-  EXPECT_LT(worst, 0.08);  // 5.1 m driven after the gap, 1 % odometry bias and 5 mm pose noise
+  EXPECT_LT(worst, 0.08);  // 5.1 m driven after the gap, 1 % odometry bias and 1 cm pose noise
   EXPECT_GT(worst, 1e-4);  // not trivially equal
 
   // Nothing left to join: a second pass tries nothing.

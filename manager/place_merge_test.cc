@@ -9,21 +9,6 @@
 namespace rumi {
 namespace {
 
-SyntheticSubmap Front(const SyntheticScene& scene, int64_t id, int first, int last, const Sim3& S, uint32_t seed) {
-  SyntheticSubmapOptions o;
-  o.id = id;
-  o.first_frame = first;
-  o.last_frame = last;
-  o.keyframe_step = 2;
-  o.S_lw = S;
-  o.max_octave = 3;
-  o.pose_noise_m = 0.01;
-  o.pose_noise_rad = 0.002;
-  o.point_id_offset = 1000000 * (id + 1);
-  o.seed = seed;
-  return MakeSyntheticSubmap(scene, o);
-}
-
 struct Fixture {
   SyntheticScene scene;
   Sim3 S_aw, S_bw;
@@ -40,8 +25,8 @@ Fixture Make(uint32_t seed) {
   f.scene = MakeSyntheticScene(so);
   f.S_aw = RandomSim3(seed * 7 + 1);
   f.S_bw = RandomSim3(seed * 7 + 2);
-  f.a = Front(f.scene, 1, 0, 40, f.S_aw, seed * 7 + 3);
-  f.b = Front(f.scene, 2, 44, 80, f.S_bw, seed * 7 + 4);
+  f.a = MakeSyntheticFront(f.scene, 1, 0, 40, f.S_aw, seed * 7 + 3);
+  f.b = MakeSyntheticFront(f.scene, 2, 44, 80, f.S_bw, seed * 7 + 4);
   AttachPointDescriptors(&f.a, f.scene.points.size(), seed + 100, 20, seed * 7 + 5);
   AttachPointDescriptors(&f.b, f.scene.points.size(), seed + 100, 20, seed * 7 + 6);
   return f;

@@ -139,6 +139,22 @@ void AttachPointDescriptors(SyntheticSubmap* s, size_t num_scene_points, uint32_
   }
 }
 
+SyntheticSubmap MakeSyntheticFront(const SyntheticScene& scene, int64_t id, int first, int last, const Sim3& S,
+                                   uint32_t seed) {
+  SyntheticSubmapOptions o;
+  o.id = id;
+  o.first_frame = first;
+  o.last_frame = last;
+  o.keyframe_step = 2;
+  o.S_lw = S;
+  o.max_octave = 3;
+  o.pose_noise_m = 0.01;
+  o.pose_noise_rad = 0.002;
+  o.point_id_offset = 1000000 * (id + 1);
+  o.seed = seed;
+  return MakeSyntheticSubmap(scene, o);
+}
+
 void AttachSyntheticOdometry(const SyntheticScene& scene, const Se3& T_ow, double bias, double noise_m,
                              uint32_t seed, Submap* s) {
   std::mt19937 rng(seed);

@@ -55,6 +55,12 @@ struct SyntheticSubmap {
 
 SyntheticSubmap MakeSyntheticSubmap(const SyntheticScene& scene, const SyntheticSubmapOptions& o);
 
+// A front submap of frames [first, last] in its own frame S (world ->
+// submap): a keyframe every 2 frames, octaves 0-3, the pose noise of a
+// tracked map (1 cm, 0.002 rad), point ids offset by 1e6 x (id + 1).
+SyntheticSubmap MakeSyntheticFront(const SyntheticScene& scene, int64_t id, int first, int last, const Sim3& S,
+                                   uint32_t seed);
+
 // ORB-like point descriptors: scene point i has a random 256-bit descriptor
 // drawn from scene_seed, and each submap point gets its scene point's with
 // `flips` random bits flipped (another view of the same corner). Submaps
