@@ -91,7 +91,7 @@ std::shared_ptr<Features> Front::Extract(const cv::Mat& image) {
 
 void Front::AddPosePrior(Timestamp t, const Se3& T_wb) {
   if (!poses_.empty() && t <= poses_.back().first) return;  // time order only
-  poses_.push_back({t, T_wb});
+  poses_.push_back({t, T_wb * options_.odometry_T_bc});  // camera poses from here on
   while (poses_.size() > 100000) poses_.pop_front();
 }
 

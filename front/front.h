@@ -34,8 +34,9 @@ struct FrameTiming {
 };
 
 // Relative pose between consecutive submaps from the external pose source:
-// the body motion from the last tracked frame of `from` to the first
-// keyframe of `to` (metric, pose-source frame). valid=false without poses.
+// the camera motion (the body's through odometry_T_bc) from the last tracked
+// frame of `from` to the first keyframe of `to` (metric, pose-source frame).
+// valid=false without poses.
 struct SubmapLink {
   int64_t from = -1, to = -1;
   Timestamp t_from = 0, t_to = 0;
@@ -58,8 +59,9 @@ class Front {
   // One 8-bit grey (or BGR) image in capture order.
   FrameRecord Track(Timestamp t, const cv::Mat& image);
 
-  // External pose source (odometry/IMU body poses in their own world frame),
-  // used to chain submaps in the hierarchical mode and across losses; the
+  // External pose source (odometry/IMU body poses in their own world frame,
+  // turned into camera poses by options.odometry_T_bc), used to chain
+  // submaps in the hierarchical mode and across losses; the
   // poses at a submap's frames travel with it (Submap::odometry). Call from
   // the tracking thread, in time order, before Track() of the frames it covers.
   void AddPosePrior(Timestamp t, const Se3& T_wb);

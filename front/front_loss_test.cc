@@ -107,11 +107,14 @@ TEST(FrontLoss, HierarchicalCoarseStateChainsSubmapsByPosePrior) {
   o.hier.eta = 3.0;  // KITTI frames: ~40 keypoints per 100x100 px
   o.hier.sparse_frames = 3;
   o.hier.resume_frames = 3;
+  // The odometry stand-in gives body poses; the camera sits 0.3 m up, turned.
+  o.odometry_T_bc = Se3(Eigen::Quaterniond(Eigen::AngleAxisd(1.2, Eigen::Vector3d(1, 1, 0).normalized())),
+                        Eigen::Vector3d(0.1, -0.2, 0.3));
   Front front(o, seq->camera);
   std::map<Timestamp, Se3> gt;
   for (const Frame& f : seq->frames) {
     ASSERT_TRUE(f.T_wc_gt);
-    front.AddPosePrior(f.timestamp, *f.T_wc_gt);  // odometry stand-in
+    front.AddPosePrior(f.timestamp, *f.T_wc_gt * o.odometry_T_bc.Inverse());  // body pose
     gt[f.timestamp] = *f.T_wc_gt;
   }
   int coarse = 0, halted = 0, tracked_after = 0;
@@ -153,12 +156,14 @@ TEST(FrontLoss, HierarchicalCoarseStateChainsSubmapsByPosePrior) {
   const Se3 expect = gt[l.t_from].Inverse() * gt[l.t_to];
   EXPECT_LT((l.T_from_to.translation() - expect.translation()).norm(), 1e-6);
   EXPECT_GT(l.T_from_to.translation().norm(), 3.0);  // the car moved on meanwhile
-  // Each submap carries the pose source at its frames (the manager's odometry merge).
+  // Each submap carries the pose source at its frames (the manager's odometry
+  // merge), as camera poses.
   for (const Submap& s : front.FinishedSubmaps()) {
     ASSERT_EQ(s.odometry.size(), s.frames.size()) << "submap " << s.id;
     for (size_t i = 0; i < s.frames.size(); ++i) {
       EXPECT_EQ(s.odometry[i].timestamp, s.frames[i].timestamp);
       EXPECT_LT((s.odometry[i].T_wb.translation() - gt[s.frames[i].timestamp].translation()).norm(), 1e-9);
+      EXPECT_LT(s.odometry[i].T_wb.rotation().angularDistance(gt[s.frames[i].timestamp].rotation()), 1e-9);
     }
   }
 }

@@ -1,5 +1,8 @@
 #include "front/front_options.h"
 
+#include <cmath>
+#include <vector>
+
 namespace rumi {
 
 bool FrontOptions::Check(std::string* why) const {
@@ -74,6 +77,13 @@ void ReadOptions(ConfigSection& s, FrontOptions* o) {
   s.Read("hierarchical", &o->hierarchical);
   ConfigSection h = s.Child("hierarchical_mode");
   ReadOptions(h, &o->hier);
+  std::vector<double> T;
+  if (s.Read("odometry_T_bc", &T)) {
+    if (T.size() != 7) s.Fail("odometry_T_bc", "expected [tx, ty, tz, qx, qy, qz, qw], got " + std::to_string(T.size()) + " values");
+    const Eigen::Quaterniond q(T[6], T[3], T[4], T[5]);
+    if (!(std::abs(q.norm() - 1.0) < 1e-3)) s.Fail("odometry_T_bc", "rotation is not a unit quaternion (x y z w order)");
+    o->odometry_T_bc = Se3(q, Eigen::Vector3d(T[0], T[1], T[2]));
+  }
   CheckOptions(*o, s, "front");
 }
 

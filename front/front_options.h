@@ -3,6 +3,7 @@
 #include <string>
 
 #include "common/config.h"
+#include "common/geometry.h"
 #include "common/orb_extractor.h"
 #include "front/hierarchical.h"
 
@@ -55,6 +56,10 @@ struct FrontOptions {
   // Hierarchical fine/coarse mode (paper 000).
   bool hierarchical = false;
   HierarchicalOptions hier;
+  // External pose source: the camera's pose in the source's body frame
+  // (YAML `odometry_T_bc: [tx, ty, tz, qx, qy, qz, qw]`), so body poses
+  // become camera poses (coarse poses, submap links, Submap::odometry).
+  Se3 odometry_T_bc;
 
   bool Check(std::string* why = nullptr) const;
 };

@@ -144,6 +144,18 @@ TEST(Front, OptionsFromConfig) {
   EXPECT_NE(fails("front: {orb: {scale_factor: 3}}").find("scale_factor"), std::string::npos);
   EXPECT_NE(fails("front: {min_tracked_inlers: 40}").find("min_tracked_inlers"), std::string::npos);
   EXPECT_NE(fails("front: {hierarchical: maybe}").find("hierarchical"), std::string::npos);
+  EXPECT_NE(fails("front: {odometry_T_bc: [0, 0, 0.1]}").find("odometry_T_bc"), std::string::npos);
+  EXPECT_NE(fails("front: {odometry_T_bc: [0, 0, 0.1, 0, 0, 0, 2]}").find("unit quaternion"), std::string::npos);
+  {
+    ConfigSection r = LoadConfigString("front: {odometry_T_bc: [0.1, 0, 0.2, 0.5, -0.5, 0.5, -0.5]}", "cam.yaml");
+    ConfigSection f = r.Child("front");
+    FrontOptions x;
+    ReadOptions(f, &x);
+    EXPECT_NO_THROW(f.Finish());
+    EXPECT_LT((x.odometry_T_bc.translation() - Eigen::Vector3d(0.1, 0, 0.2)).norm(), 1e-12);
+    // A camera looking along the body's x axis: its z axis is the body's x.
+    EXPECT_LT((x.odometry_T_bc.rotation() * Eigen::Vector3d::UnitZ() - Eigen::Vector3d::UnitX()).norm(), 1e-9);
+  }
   FrontOptions reinit;
   EXPECT_EQ(reinit.reinit_min_triangulated, 200);
   reinit.reinit_min_triangulated = reinit.init_min_triangulated - 1;  // looser than a first init

@@ -87,8 +87,8 @@ struct ManagerOptions {
   // odometry moving at least odometry_min_path_m so the scale is observable);
   // a fit is refused when its position residual exceeds
   // odometry_max_residual times the spread of the positions or its rotation
-  // residual exceeds odometry_max_rotation_deg. The pose source must give
-  // camera poses (extrinsics applied upstream).
+  // residual exceeds odometry_max_rotation_deg. Submap odometry holds camera
+  // poses (the front applies front.odometry_T_bc).
   bool odometry_merge = true;
   double odometry_window_s = 3.0;
   int odometry_min_frames = 10;

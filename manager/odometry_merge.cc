@@ -77,7 +77,7 @@ std::optional<OdometryFit> FitOdometry(const Submap& s, Timestamp t_begin, Times
   fit.rotation_rmse_deg = std::sqrt(rot2 / n) * kRadToDeg;
   if (fit.rotation_rmse_deg > options.odometry_max_rotation_deg) {
     Fail(why, "rotation residual " + std::to_string(fit.rotation_rmse_deg) + " deg > " +
-                  std::to_string(options.odometry_max_rotation_deg) + " deg (is the pose source a camera pose?)");
+                  std::to_string(options.odometry_max_rotation_deg) + " deg (camera not where front.odometry_T_bc says?)");
     return std::nullopt;
   }
   // Scale and translation given the rotation: least squares on the centres.
