@@ -28,7 +28,8 @@ TEST(EvalRun, FrontOnlyRunWritesCompleteMetrics) {
       << Slurp(dir / "synth.log");
   const fs::path out = dir / "eval";
   ASSERT_EQ(RunRumi("eval run " + seq.string() + " --dataset tum --config " + (seq / "camera.yaml").string() +
-                    " --out " + out.string() + " --rate max --no-back --sequence smooth60",
+                    " --out " + out.string() + " --rate max --no-back --sequence smooth60 --odometry " +
+                    (seq / "odometry.txt").string(),
                 dir / "eval.log"), 0)
       << Slurp(dir / "eval.log");
   const nlohmann::json m = nlohmann::json::parse(Slurp(out / "run_1" / "metrics.json"));
@@ -65,6 +66,10 @@ TEST(EvalRun, FrontOnlyRunWritesCompleteMetrics) {
   EXPECT_TRUE(fs::exists(out / "run_1" / "timeline.png"));
   const std::string log = Slurp(dir / "eval.log");
   EXPECT_NE(log.find("| smooth60 |"), std::string::npos) << log;  // the table is printed
+  // The synthetic pose source reached the front (one pose per frame).
+  const std::string front_log = Slurp(out / "run_1" / "rumi-front.log");
+  EXPECT_NE(front_log.find("pose source " + (seq / "odometry.txt").string() + " (60 poses)"), std::string::npos)
+      << front_log;
   fs::remove_all(dir);
 }
 
