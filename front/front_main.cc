@@ -73,8 +73,8 @@ int Main(int argc, char** argv) {
   double resend_interval_s = 2.0, wait_for_consumers_s = 30.0;
   app.add_option("--instance", instance, "ipc instance: run as the pipeline's front (docs/eval.md); needs --out");
   app.add_option("--odometry", odometry_path,
-                 "with --instance: TUM file of the robot's pose source (body -> odometry world), sent with "
-                 "the submaps so the manager can join submaps vision cannot (docs/manager.md)");
+                 "TUM file of the robot's pose source (body -> odometry world; front.odometry_T_bc gives the "
+                 "camera in the body), sent with the submaps so the manager can join submaps vision cannot");
   app.add_option("--rate", rate, "with --instance: replay at R x the recorded rate, or max");
   app.add_option("--resend-interval", resend_interval_s,
                  "with --instance: seconds between resends of the current submap");
@@ -116,6 +116,11 @@ int Main(int argc, char** argv) {
   if (sync) fopt.local_mapping_thread = false;
   auto source = OpenDataset(dopt);
   Front front(fopt, source->camera());
+  if (!odometry_path.empty()) {  // the whole pose source up front: offline runs only
+    const Trajectory odometry = ReadTumTrajectory(odometry_path);
+    for (const StampedPose& p : odometry) front.AddPosePrior(p.t, p.T_wc);
+    spdlog::info("rumi-front: pose source {} ({} poses)", odometry_path, odometry.size());
+  }
   spdlog::info("rumi-front: {} frames, camera {}x{} fx {:.2f}", source->size(), source->camera().width(),
                source->camera().height(), source->camera().fx());
   Frame frame;
