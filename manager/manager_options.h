@@ -95,7 +95,7 @@ struct ManagerOptions {
   double odometry_min_path_m = 0.1;
   double odometry_max_residual = 0.15;
   double odometry_max_rotation_deg = 3.0;
-  double odometry_max_gap_s = 10.0;
+  double odometry_max_gap_s = 2.0;
 
   bool Check(std::string* why = nullptr) const;
 };
