@@ -111,6 +111,7 @@ TrajectoryMetrics ComputeTrajectoryMetrics(const std::vector<Timestamp>& frames,
       m.ate_rmse = r.translation.rmse;
       m.ate_pairs = r.pairs.size();
       m.S_gt_est = r.S_gt_est;
+      if (r.line_alignment) m.ate_note = "ground truth on a straight line: aligned along it";
     } catch (const std::exception& e) {
       m.ate_note = e.what();
     }
@@ -165,8 +166,8 @@ std::string FormatRunMetricsJson(const RunMetricsReport& r) {
   j["submaps_back"] = r.counts.submaps_back;
   j["front_saved_frames"] = r.counts.front_saved_frames;
   nlohmann::ordered_json notes = nlohmann::ordered_json::object();
-  if (!r.front.ate_rmse) notes["front_ate"] = r.front.ate_note;
-  if (!r.merged.ate_rmse) notes["merged_ate"] = r.merged.ate_note;
+  if (!r.front.ate_note.empty()) notes["front_ate"] = r.front.ate_note;
+  if (!r.merged.ate_note.empty()) notes["merged_ate"] = r.merged.ate_note;
   if (!notes.empty()) j["notes"] = notes;
   return j.dump(2) + "\n";
 }

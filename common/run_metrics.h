@@ -45,7 +45,7 @@ struct TrajectoryMetrics {
   std::optional<double> ate_rmse;  // null without GT or when ATE is impossible
   size_t ate_pairs = 0;
   std::optional<Sim3> S_gt_est;    // alignment used (for plots)
-  std::string ate_note;            // why the RMSE is null, if it is
+  std::string ate_note;            // why the RMSE is null, or an unusual alignment
 };
 
 struct RunMetricsReport {

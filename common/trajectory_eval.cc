@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include <Eigen/Eigenvalues>
+
 namespace rumi {
 namespace {
 
@@ -42,6 +44,60 @@ double Median(std::vector<double> v) {
   const double upper = v[n / 2];
   if (n % 2 == 1) return upper;
   return 0.5 * (upper + *std::max_element(v.begin(), v.begin() + n / 2));
+}
+
+
+// Ground truth on a straight line (a slider, a rail): Umeyama leaves the
+// rotation about the line undetermined. The estimate's principal axis is
+// turned onto the line, the scale is the 1-D least-squares fit of the
+// along-line coordinates, and the free angle about the line is the one that
+// best agrees with the orientations (closed form: maximise trace(R M)).
+// Position errors do not depend on that angle; estimate positions off the
+// estimate's axis still count in full. Returns false when the ground truth
+// is not a line or the estimate does not move.
+bool LineAlign(const std::vector<Eigen::Vector3d>& p_est, const std::vector<Eigen::Vector3d>& p_gt,
+               const std::vector<Eigen::Quaterniond>& q_est, const std::vector<Eigen::Quaterniond>& q_gt,
+               bool with_scale, Sim3* S) {
+  const size_t n = p_est.size();
+  if (n < 3) return false;  // two points are always on a line
+  auto principal = [n](const std::vector<Eigen::Vector3d>& p, Eigen::Vector3d* mu, Eigen::Vector3d* eig,
+                       Eigen::Vector3d* axis) {
+    *mu = Eigen::Vector3d::Zero();
+    for (const auto& x : p) *mu += x;
+    *mu /= double(n);
+    Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
+    for (const auto& x : p) c += (x - *mu) * (x - *mu).transpose();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(c / double(n));
+    *eig = es.eigenvalues();  // ascending
+    *axis = es.eigenvectors().col(2);
+  };
+  Eigen::Vector3d mu_e, mu_g, ev_e, ev_g, u_e, u_g;
+  principal(p_est, &mu_e, &ev_e, &u_e);
+  principal(p_gt, &mu_g, &ev_g, &u_g);
+  // Line: the spread across it is under 0.1 % of the spread along it.
+  if (!(ev_g(2) > 1e-20) || ev_g(1) > 1e-6 * ev_g(2) || !(ev_e(2) > 1e-20)) return false;
+  double see = 0, seg = 0;
+  for (size_t k = 0; k < n; ++k) {
+    const double a = (p_est[k] - mu_e).dot(u_e), b = (p_gt[k] - mu_g).dot(u_g);
+    see += a * a;
+    seg += a * b;
+  }
+  if (seg < 0) {
+    u_e = -u_e;
+    seg = -seg;
+  }
+  const double s = with_scale ? seg / see : 1.0;
+  const Eigen::Matrix3d R0 = Eigen::Quaterniond::FromTwoVectors(u_e, u_g).toRotationMatrix();
+  Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+  for (size_t k = 0; k < n; ++k) M += R0 * q_est[k].toRotationMatrix() * q_gt[k].toRotationMatrix().transpose();
+  // R(theta) about u_g = cos I + sin [u]x + (1 - cos) u u^T.
+  Eigen::Matrix3d ux;
+  ux << 0, -u_g.z(), u_g.y(), u_g.z(), 0, -u_g.x(), -u_g.y(), u_g.x(), 0;
+  const double A = M.trace() - u_g.dot(M * u_g), B = (ux * M).trace();
+  const double th = std::atan2(B, A);
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(th, u_g).toRotationMatrix() * R0;
+  *S = Sim3(s, Eigen::Quaterniond(R), mu_g - s * R * mu_e);
+  return true;
 }
 
 }  // namespace
@@ -197,12 +253,23 @@ AteResult ComputeAte(const Trajectory& est, const Trajectory& gt, const AteOptio
   if (options.alignment != Alignment::kNone) {
     const UmeyamaResult u =
         UmeyamaAlign(p_est, p_gt, /*with_scale=*/options.alignment == Alignment::kSim3);
-    if (!u.ok) {
-      throw std::runtime_error(std::string(ToString(options.alignment)) + " alignment failed on " +
+    if (u.ok) {
+      r.S_gt_est = u.transform;
+    } else {
+      std::vector<Eigen::Quaterniond> q_est, q_gt;
+      for (const PosePair& pp : r.pairs) {
+        q_est.push_back(est[pp.est].T_wc.rotation());
+        q_gt.push_back(gt[pp.gt].T_wc.rotation());
+      }
+      if (LineAlign(p_est, p_gt, q_est, q_gt, options.alignment == Alignment::kSim3, &r.S_gt_est)) {
+        r.line_alignment = true;
+      } else {
+        throw std::runtime_error(std::string(ToString(options.alignment)) + " alignment failed on " +
                                std::to_string(r.pairs.size()) +
-                               " pairs (needs >= 3 non-collinear estimate positions)");
+                               " pairs (needs >= 3 non-collinear positions, or ground truth on a "
+                               "straight line and an estimate that moves)");
+      }
     }
-    r.S_gt_est = u.transform;
   }
   r.translation_errors.resize(r.pairs.size());
   std::vector<double> rot(r.pairs.size());

@@ -67,14 +67,19 @@ struct AteResult {
   // Maps estimate positions into the ground-truth frame: p_gt ~ S * p_est.
   // Identity for kNone, scale 1 for kSe3.
   Sim3 S_gt_est;
+  // The ground truth lies on a straight line (a slider): aligned along it,
+  // the angle about it fitted to the orientations (LineAlign in the .cc).
+  bool line_alignment = false;
   std::vector<double> translation_errors;  // per pair, |p_gt - S * p_est| (GT units)
   ErrorStats translation;
   ErrorStats rotation_deg;  // per pair angle of R_gt^T * R(S) * R_est, degrees
 };
 
 // Associates, aligns (Umeyama on the paired positions) and measures.
+// Ground truth on a straight line is aligned along the line (line_alignment).
 // Throws std::runtime_error when there are no pairs, fewer than 3 pairs for
-// an alignment, or the paired positions are degenerate (collinear / static).
+// an alignment, or the paired positions are otherwise degenerate (a static
+// estimate, collinear estimate positions against non-collinear ground truth).
 AteResult ComputeAte(const Trajectory& est, const Trajectory& gt, const AteOptions& options);
 
 // ---- tracking rate ----------------------------------------------------------

@@ -203,6 +203,47 @@ TEST(Ate, ErrorsAndDegenerateInputThrow) {
   EXPECT_THROW(ComputeAte(gt, gt, bad), std::invalid_argument);
 }
 
+TEST(Ate, StraightLineGroundTruthIsAlignedAlongTheLine) {
+  // A slider (ECD slider_*): positions on a line, orientation fixed.
+  Trajectory gt;
+  for (int i = 0; i < 100; ++i) gt.push_back({1000 + i * 33'000'000LL, Se3(Eigen::Quaterniond::Identity(),
+                                                                         Eigen::Vector3d(0.01 * i, 0, 0))});
+  const Sim3 S_est_gt = SomeSim3(0.4);
+  AteOptions o;
+  const AteResult exact = ComputeAte(Transform(gt, S_est_gt), gt, o);
+  EXPECT_TRUE(exact.line_alignment);
+  EXPECT_LT(exact.translation.rmse, 1e-9);
+  EXPECT_NEAR(exact.S_gt_est.scale(), 2.5, 1e-9);
+  // The angle about the line comes from the orientations: all recovered.
+  EXPECT_LT(exact.rotation_deg.max, 1e-6);
+  EXPECT_TRUE(exact.S_gt_est.Matrix().isApprox(S_est_gt.Inverse().Matrix(), 1e-9));
+
+  // 2 cm off the line on frames 40-59 (symmetric about the middle, so the
+  // axis does not tilt; the centroid moves 4 mm): errors 16 mm there and
+  // 4 mm elsewhere, rmse sqrt((20 * 16^2 + 80 * 4^2) / 100) = 8 mm.
+  Trajectory bumped = gt;
+  for (int i = 40; i < 60; ++i) bumped[i].T_wc.translation().y() += 0.02;
+  const AteResult bump = ComputeAte(Transform(bumped, S_est_gt), gt, o);
+  EXPECT_TRUE(bump.line_alignment);
+  EXPECT_NEAR(bump.translation.rmse, 0.008, 1e-9);
+  EXPECT_NEAR(bump.translation.max, 0.016, 1e-9);
+
+  // Se3 cannot undo the scale of 0.4.
+  o.alignment = Alignment::kSe3;
+  const AteResult se3 = ComputeAte(Transform(gt, S_est_gt), gt, o);
+  EXPECT_DOUBLE_EQ(se3.S_gt_est.scale(), 1.0);
+  EXPECT_GT(se3.translation.rmse, 0.1);
+
+  // A static estimate against the line, and two pairs, still throw.
+  Trajectory still = gt;
+  for (StampedPose& p : still) p.T_wc = Se3();
+  EXPECT_THROW(ComputeAte(still, gt, AteOptions()), std::runtime_error);
+  const Trajectory two(gt.begin(), gt.begin() + 2);
+  EXPECT_THROW(ComputeAte(two, gt, AteOptions()), std::runtime_error);
+  // Collinear estimate against ground truth that is not a line.
+  EXPECT_THROW(ComputeAte(gt, MakeGroundTruth(100, 1000, 33'000'000), AteOptions()), std::runtime_error);
+}
+
 // ---- association -----------------------------------------------------------
 
 TEST(Association, PairsEachEstimateWithNearestGroundTruth) {

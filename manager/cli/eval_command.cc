@@ -102,6 +102,7 @@ int RunAte(const AteArgs& a) {
                         {"max_abs_dt_s", r.max_abs_dt_s}};
     const Eigen::Quaterniond& q = S.rotation();
     j["alignment"] = {{"kind", ToString(r.alignment)},
+                      {"along_line", r.line_alignment},
                       {"scale", S.scale()},
                       {"rotation_wxyz", {q.w(), q.x(), q.y(), q.z()}},
                       {"translation", {S.translation().x(), S.translation().y(), S.translation().z()}}};
@@ -133,9 +134,12 @@ int RunAte(const AteArgs& a) {
                 o.association.one_to_one ? "" : ", many-to-one allowed");
   }
   const Eigen::AngleAxisd aa(S.rotation());
-  std::printf("alignment:    %s, scale %.9g, rotation %.6g deg, translation [%.6g %.6g %.6g]\n",
-              ToString(r.alignment), S.scale(), aa.angle() * 180.0 / M_PI, S.translation().x(),
-              S.translation().y(), S.translation().z());
+  std::printf("alignment:    %s%s, scale %.9g, rotation %.6g deg, translation [%.6g %.6g %.6g]\n",
+              ToString(r.alignment),
+              r.line_alignment ? " along the line (ground truth is straight; angle about it from the orientations)"
+                               : "",
+              S.scale(), aa.angle() * 180.0 / M_PI, S.translation().x(), S.translation().y(),
+              S.translation().z());
   const ErrorStats& t = r.translation;
   std::printf("ATE (translation): rmse %.9g  mean %.9g  median %.9g  std %.9g  min %.9g  max %.9g"
               "  (%zu pairs)\n",
