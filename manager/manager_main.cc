@@ -3,6 +3,7 @@
 // the global trajectories and manager_stats.json in the out dir up to date.
 //   rumi-manager --instance ID [--config FILE] --out DIR [--map FILE]
 //                [--log-level L] [--wait-for-producers S] [--rebuild-interval S]
+//                [--rebuild-max-duty F]
 // Exit: 0 when both producers closed their channels (or SIGINT/SIGTERM) and
 // everything is saved; 1 on a runtime error (an output cannot be written);
 // 2 on a bad command line or config; 3 when no producer appeared at all
@@ -40,6 +41,9 @@ int Main(int argc, char** argv) {
   app.add_option("--rebuild-interval", run.rebuild_interval_s,
                  "at most one global-map rebuild per this many seconds while submaps arrive")
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--rebuild-max-duty", run.rebuild_max_duty,
+                 "largest share of the time spent rebuilding: after a rebuild of T s, wait T (1/duty - 1) s")
+      ->check(CLI::Range(0.01, 1.0));
   CLI11_PARSE(app, argc, argv);
 
   ManagerProcessConfig config;

@@ -435,6 +435,11 @@ bool PollChannel(Channel* c, ManagerService* service, double wait_for_producers_
 
 }  // namespace
 
+bool RebuildDue(const ManagerRunOptions& run, double since_last_s, double last_rebuild_s) {
+  const double duty = std::clamp(run.rebuild_max_duty, 1e-3, 1.0);
+  return since_last_s >= std::max(run.rebuild_interval_s, last_rebuild_s * (1.0 / duty - 1.0));
+}
+
 ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service, const std::atomic<bool>* stop) {
   const auto start = std::chrono::steady_clock::now();
   Channel front("front", run.ipc, SubmapSource::kFront);
@@ -452,7 +457,8 @@ ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service
     // Finished channels are polled too: a restarted producer is read again.
     for (Channel* c : {&front, &back}) got |= PollChannel(c, service, run.wait_for_producers_s, start);
     if (front.ended() && back.ended()) break;
-    if (service->dirty() && SecondsSince(last_rebuild) >= run.rebuild_interval_s && !got) {
+    if (service->dirty() && !got &&
+        RebuildDue(run, SecondsSince(last_rebuild), service->stats().last_rebuild_seconds)) {
       // Rebuild once the burst is read (got == false: the rings are empty now).
       if (!service->Rebuild(&why)) {
         spdlog::error("manager: {}", why);

@@ -117,7 +117,17 @@ struct ManagerRunOptions {
   // At most one rebuild per this many seconds while submaps keep arriving;
   // the final one runs at exit regardless.
   double rebuild_interval_s = 1.0;
+  // A rebuild costs more as the map collects submaps (merge_benchmark: 0.7 s
+  // at 4 losses, 10 s at 32). The manager waits at least as long again as
+  // its last rebuild took, scaled so that rebuilding takes at most this share
+  // of its time: the realtime front shares the ground station's cores.
+  double rebuild_max_duty = 0.5;
 };
+
+// Whether a rebuild may start `since_last_s` after the last one ended, which
+// took `last_rebuild_s`: not before rebuild_interval_s, and not before
+// last_rebuild_s * (1 / rebuild_max_duty - 1).
+bool RebuildDue(const ManagerRunOptions& run, double since_last_s, double last_rebuild_s);
 
 // Result of RunManagerLoop.
 enum class ManagerExit { kProducersDone, kStopped, kNoProducer, kError };

@@ -550,6 +550,25 @@ TEST(ManagerService, ConfigToleratesOtherProcessesAndRefusesUnknownKeys) {
   EXPECT_NE(e.find("ipc.submap_slots"), std::string::npos) << e;
 }
 
+TEST(ManagerService, RebuildsTakeAtMostTheirDutyShare) {
+  ManagerRunOptions run;  // 1 s interval, duty 0.5
+  // Quick rebuilds: the interval decides.
+  EXPECT_FALSE(RebuildDue(run, 0.9, 0.2));
+  EXPECT_TRUE(RebuildDue(run, 1.0, 0.2));
+  // A 10 s rebuild (a long session's map) is followed by 10 s without one.
+  EXPECT_FALSE(RebuildDue(run, 9.9, 10.0));
+  EXPECT_TRUE(RebuildDue(run, 10.0, 10.0));
+  run.rebuild_max_duty = 0.2;  // 10 s of work, then 40 s of rest
+  EXPECT_FALSE(RebuildDue(run, 39.0, 10.0));
+  EXPECT_TRUE(RebuildDue(run, 40.0, 10.0));
+  run.rebuild_max_duty = 1.0;  // no bound beyond the interval
+  EXPECT_TRUE(RebuildDue(run, 1.0, 10.0));
+  run.rebuild_max_duty = 0;  // clamped to 0.001, not a division by zero
+  EXPECT_FALSE(RebuildDue(run, 9000.0, 10.0));
+  EXPECT_TRUE(RebuildDue(run, 9991.0, 10.0));
+  EXPECT_TRUE(RebuildDue(run, 1.0, 0.0));
+}
+
 TEST(ManagerService, LoopEndsWhenNoProducerAppearsOrOnStop) {
   TempDir dir;
   std::string why;

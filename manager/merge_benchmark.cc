@@ -1,10 +1,18 @@
 // Merge of a front and a back submap with 100 keyframes each (pairing, M_com,
 // alignment, Sim(3) refinement, fusing, welding BA). Target: <= 1 s.
-//   build-manager/bin/merge_benchmark   (counters: per-stage seconds)
+// And the manager's whole rebuild (ManagerService::Rebuild without the file
+// writes) for a session of N losses: how its cost grows as a daemon's map
+// collects submaps.
+//   build-*/bin/merge_benchmark   (counters: per-stage seconds)
 #include <benchmark/benchmark.h>
+
+#include <chrono>
 
 #include "common/logging.h"
 #include "manager/merge.h"
+#include "manager/odometry_merge.h"
+#include "manager/place_merge.h"
+#include "manager/post_culling.h"
 #include "manager/synthetic_submaps.h"
 
 namespace rumi {
@@ -79,6 +87,82 @@ void BM_Merge100x100(benchmark::State& state) {
 // (scene points, welding covisibility threshold)
 BENCHMARK(BM_Merge100x100)->Args({1500, 15})->Args({3000, 15})->Args({3000, 100})->Unit(benchmark::kMillisecond)
     ->Iterations(3);
+
+// A session with n front submaps of 40 frames, lost for 10 frames between
+// them; with backs, a back submap over each loss (the last 10 frames before
+// it, the gap and the first 10 after), so everything chains into one map.
+// Without backs (COLMAP failed everywhere) only the place merge can join
+// the fronts: every pair of front submaps is tried, with ORB descriptors.
+struct Session {
+  GlobalMap map;
+  Session(int n, bool backs) {
+    SyntheticSceneOptions so;
+    so.num_frames = 50 * n;
+    so.num_points = 14 * so.num_frames;
+    const SyntheticScene scene = MakeSyntheticScene(so);
+    for (int k = 0; k < n; ++k) {
+      SyntheticSubmap f = MakeSyntheticFront(scene, k, 50 * k, 50 * k + 39, RandomSim3(100 + k), 200 + k);
+      if (!backs) AttachPointDescriptors(&f, scene.points.size(), 5, 8, 300 + k);
+      map.AddSubmap(std::move(f.submap));
+      if (!backs || k + 1 == n) continue;
+      SyntheticSubmapOptions b;
+      b.id = k;
+      b.source = SubmapSource::kBack;
+      b.first_frame = 50 * k + 30;
+      b.last_frame = 50 * k + 59;
+      b.S_lw = RandomSim3(400 + k);
+      b.frame_records = false;
+      b.point_id_offset = 500000000 + 1000000LL * k;
+      b.seed = 500 + k;
+      map.AddSubmap(MakeSyntheticSubmap(scene, b).submap);
+    }
+  }
+};
+
+void BM_RebuildSession(benchmark::State& state) {
+  spdlog::set_level(spdlog::level::err);
+  const int n = int(state.range(0));
+  const Session session(n, state.range(1) != 0);
+  ManagerOptions o;
+  double merge = 0, place = 0, odom = 0, cull = 0;
+  int merges = 0, attempts = 0, components = 0, iters = 0;
+  for (auto _ : state) {
+    GlobalMap map = session.map;
+    auto t = std::chrono::steady_clock::now();
+    auto lap = [&t] {
+      const auto now = std::chrono::steady_clock::now();
+      const double s = std::chrono::duration<double>(now - t).count();
+      t = now;
+      return s;
+    };
+    std::vector<MergeReport> reports = MergeAll(&map, o);
+    merge += lap();
+    for (MergeReport& r : PlaceMergeAll(&map, o)) reports.push_back(std::move(r));
+    place += lap();
+    for (MergeReport& r : OdometryMergeAll(&map, o)) reports.push_back(std::move(r));
+    odom += lap();
+    CullRedundantKeyframes(&map, o);
+    cull += lap();
+    attempts = int(reports.size());
+    merges = 0;
+    for (const MergeReport& r : reports) merges += r.merged;
+    components = int(map.ComponentsBySize().size());
+    ++iters;
+  }
+  state.counters["merge_s"] = merge / iters;
+  state.counters["place_s"] = place / iters;
+  state.counters["odometry_s"] = odom / iters;
+  state.counters["cull_s"] = cull / iters;
+  state.counters["attempts"] = attempts;
+  state.counters["merges"] = merges;
+  state.counters["components"] = components;
+  state.counters["submaps"] = double(session.map.size());
+}
+// (front submaps, with back submaps)
+BENCHMARK(BM_RebuildSession)
+    ->Args({4, 1})->Args({8, 1})->Args({16, 1})->Args({32, 1})
+    ->Args({4, 0})->Args({8, 0})->Args({16, 0})
+    ->Unit(benchmark::kMillisecond)->Iterations(1);
 
 }  // namespace
 }  // namespace rumi
