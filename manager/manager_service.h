@@ -118,9 +118,9 @@ struct ManagerRunOptions {
   // the final one runs at exit regardless.
   double rebuild_interval_s = 1.0;
   // A rebuild costs more as the map collects submaps (merge_benchmark: 0.7 s
-  // at 4 losses, 10 s at 32). The manager waits at least as long again as
-  // its last rebuild took, scaled so that rebuilding takes at most this share
-  // of its time: the realtime front shares the ground station's cores.
+  // at 4 losses, 10 s at 32). After a rebuild of T s the next one waits at
+  // least T (1 / duty - 1) s (0.5: as long again), so rebuilding takes at
+  // most this share of the time: the realtime front shares the cores.
   double rebuild_max_duty = 0.5;
 };
 
