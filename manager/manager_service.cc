@@ -237,9 +237,10 @@ bool ManagerService::Rebuild(std::string* why) {
   for (const auto& kv : received_) replaced.push_back(kv.first);
   GlobalMap map = CopyWithout(base_, replaced);
   for (const auto& kv : received_) map.AddSubmap(kv.second);
-  stats_.reports = MergeAll(&map, options_.manager);
+  stats_.reports = MergeAll(&map, options_.manager, &merge_memo_);
   for (MergeReport& r : PlaceMergeAll(&map, options_.manager, &place_memo_)) stats_.reports.push_back(std::move(r));
   for (MergeReport& r : OdometryMergeAll(&map, options_.manager)) stats_.reports.push_back(std::move(r));
+  stats_.merges_replayed = merge_memo_.hits();
   stats_.merge_attempts = int(stats_.reports.size());
   for (const auto& r : stats_.reports) {
     if (r.merged) {
@@ -262,9 +263,10 @@ bool ManagerService::Rebuild(std::string* why) {
   ++stats_.rebuilds;
   UpdateCounts();
   stats_.last_rebuild_seconds = SecondsSince(t0);
-  spdlog::info("manager: rebuild {} in {:.2f} s: {} submaps, {} components, {} merges, keyframes {} -> {} after culling",
+  spdlog::info("manager: rebuild {} in {:.2f} s: {} submaps, {} components, {} merges, keyframes {} -> {} after culling"
+               " ({} merge attempts replayed, {} computed)",
                stats_.rebuilds, stats_.last_rebuild_seconds, map_.size(), stats_.components, stats_.merges,
-               stats_.saved_frames, stats_.saved_frames_postculled);
+               stats_.saved_frames, stats_.saved_frames_postculled, merge_memo_.hits(), merge_memo_.misses());
   return WriteOutputs(why);
 }
 
@@ -307,6 +309,7 @@ bool ManagerService::WriteStats(std::string* why) const {
   j["invalid_submaps"] = stats_.invalid_submaps;
   j["rebuilds"] = stats_.rebuilds;
   j["merge_attempts"] = stats_.merge_attempts;
+  j["merges_replayed"] = stats_.merges_replayed;
   j["base_submaps"] = stats_.base_submaps;
   j["last_rebuild_seconds"] = stats_.last_rebuild_seconds;
   j["points_before_culling"] = stats_.culling.points_before;

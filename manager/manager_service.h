@@ -9,8 +9,9 @@
 // rebuild starts from the map loaded at start (the "base", if any) without
 // the submaps that were received again, adds every received submap in its own
 // frame and runs MergeAll from scratch, then culls. Simple and correct for
-// resends; the cost is a full MergeAll per rebuild (O(fronts x backs) pair
-// attempts), so rebuilds are rate-limited by the caller (RunManagerLoop).
+// resends. A MergeMemo replays the merges whose submaps did not change, so a
+// rebuild computes only those of new or grown submaps; rebuilds are still
+// rate-limited by the caller (RunManagerLoop).
 #include <atomic>
 #include <cstdint>
 #include <map>
@@ -23,6 +24,7 @@
 #include "manager/global_map.h"
 #include "manager/manager_options.h"
 #include "manager/merge.h"
+#include "manager/merge_memo.h"
 #include "manager/place_merge.h"
 #include "manager/post_culling.h"
 
@@ -44,6 +46,7 @@ struct ManagerStats {
   int64_t rebuilds = 0;
   int merges = 0;  // successful merges that built the current map (submaps - components)
   int merge_attempts = 0;  // MergePair calls of the last rebuild
+  int merges_replayed = 0;  // of those, taken from the MergeMemo (submaps unchanged)
   int saved_frames = 0, saved_frames_postculled = 0;  // keyframes before / after culling
   int submaps_front = 0, submaps_back = 0, components = 0;
   int base_submaps = 0;  // submaps reloaded from the map file at start
@@ -91,6 +94,7 @@ class ManagerService {
   GlobalMap base_;  // reloaded at start
   std::map<SubmapKey, Submap> received_;
   PlaceMergeMemo place_memo_;  // place-merge rejections, kept across rebuilds
+  MergeMemo merge_memo_;       // merges of unchanged submaps, replayed
   GlobalMap map_;  // current product
   bool dirty_ = false;
   bool raw_dirty_ = false;  // received_ changed since the raw file was written
@@ -117,10 +121,11 @@ struct ManagerRunOptions {
   // At most one rebuild per this many seconds while submaps keep arriving;
   // the final one runs at exit regardless.
   double rebuild_interval_s = 1.0;
-  // A rebuild costs more as the map collects submaps (merge_benchmark: 0.7 s
-  // at 4 losses, 10 s at 32). After a rebuild of T s the next one waits at
-  // least T (1 / duty - 1) s (0.5: as long again), so rebuilding takes at
-  // most this share of the time: the realtime front shares the cores.
+  // A rebuild costs more as the map collects submaps (culling, and merges
+  // of changed submaps: merge_benchmark BM_RebuildSession). After a rebuild
+  // of T s the next one waits at least T (1 / duty - 1) s (0.5: as long
+  // again), so rebuilding takes at most this share of the time: the realtime
+  // front shares the cores.
   double rebuild_max_duty = 0.5;
 };
 

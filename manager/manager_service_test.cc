@@ -316,9 +316,13 @@ TEST(ManagerService, ResentFrontSubmapReplacesTheEarlierVersion) {
   EXPECT_EQ(svc.stats().merges, 2);
   ExpectMatchesTruth(s, ReadTum(dir / "merged.txt"), 0, 85);
 
+  EXPECT_EQ(svc.stats().merges_replayed, 0);
+
   svc.AddSubmap(s.front_b.submap);  // B finished: same id, re-merged
   EXPECT_TRUE(svc.dirty());
   ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  // A <-> back is replayed (neither changed), B <-> back computed again.
+  EXPECT_EQ(svc.stats().merges_replayed, 1);
   EXPECT_EQ(svc.stats().resends, 1);
   EXPECT_EQ(svc.stats().messages_front, 3);
   EXPECT_EQ(svc.stats().submaps_front, 2);  // replaced, not added

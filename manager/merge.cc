@@ -6,6 +6,7 @@
 #include "common/logging.h"
 #include "common/timestamp.h"
 #include "manager/common_points.h"
+#include "manager/merge_memo.h"
 #include "manager/sim3_alignment.h"
 #include "manager/sim3_refine.h"
 #include "manager/submap_index.h"
@@ -123,11 +124,12 @@ MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& sear
   return r;
 }
 
-std::vector<MergeReport> MergeAll(GlobalMap* map, const ManagerOptions& options) {
+std::vector<MergeReport> MergeAll(GlobalMap* map, const ManagerOptions& options, MergeMemo* memo) {
   std::vector<const Submap*> fronts, backs;
   for (size_t i = 0; i < map->size(); ++i)
     (map->submap(int(i)).source == SubmapSource::kBack ? backs : fronts).push_back(&map->submap(int(i)));
   const SearchSet search = BuildSearchSet(fronts, backs, options.search_n);
+  if (memo) memo->BeginRun(*map, search, options.pairing_max_dt_ns);
   std::vector<MergeReport> reports;
   std::vector<std::pair<size_t, size_t>> tried;  // data unchanged: no retry
   for (bool progress = true; progress;) {
@@ -138,11 +140,13 @@ std::vector<MergeReport> MergeAll(GlobalMap* map, const ManagerOptions& options)
         if (map->submap(int(b)).source != SubmapSource::kBack || map->Connected(int(f), int(b))) continue;
         if (std::find(tried.begin(), tried.end(), std::make_pair(f, b)) != tried.end()) continue;
         tried.emplace_back(f, b);
-        reports.push_back(MergePair(map, int(f), int(b), search, options));
+        reports.push_back(memo ? memo->Merge(map, int(f), int(b), search, options)
+                               : MergePair(map, int(f), int(b), search, options));
         progress |= reports.back().merged;
       }
     }
   }
+  if (memo) memo->EndRun();
   return reports;
 }
 

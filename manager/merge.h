@@ -30,7 +30,10 @@ struct MergeReport {
   int fused_points = 0;
   WeldingReport welding;
   double seconds_align = 0, seconds_refine = 0, seconds_weld = 0;
+  bool replayed = false;  // the outcome of an earlier rebuild (MergeMemo)
 };
+
+class MergeMemo;
 
 // Merges map submap `front` with map submap `back`. Does nothing (reason set)
 // when they are already connected or the alignment is rejected.
@@ -38,8 +41,9 @@ MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& sear
 
 // Tries every (front, back) pair of submaps not yet connected, repeating until
 // no merge succeeds (so chains A <-> back <-> B close), with F^search built
-// from all submaps.
-std::vector<MergeReport> MergeAll(GlobalMap* map, const ManagerOptions& options);
+// from all submaps. With a memo, attempts it holds are replayed (merge_memo.h)
+// and the memo keeps this run's attempts.
+std::vector<MergeReport> MergeAll(GlobalMap* map, const ManagerOptions& options, MergeMemo* memo = nullptr);
 
 // Sets the reason and logs "<kind> A <-> B rejected: why".
 MergeReport RejectMerge(MergeReport r, const char* kind, const std::string& why);

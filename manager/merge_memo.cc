@@ -1,0 +1,150 @@
+#include "manager/merge_memo.h"
+
+#include <algorithm>
+
+#include "common/logging.h"
+
+namespace rumi {
+namespace {
+
+// FNV-1a, 64 bit.
+class Hasher {
+ public:
+  void Bytes(const void* data, size_t n) {
+    const auto* b = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < n; ++i) {
+      h_ ^= b[i];
+      h_ *= 1099511628211ull;
+    }
+  }
+  template <typename T>
+  void Add(T v) {
+    static_assert(std::is_arithmetic_v<T>);
+    Bytes(&v, sizeof v);
+  }
+  template <typename T>
+  void AddArray(const std::vector<T>& v, size_t bytes_per_element = sizeof(T)) {
+    Add(v.size());
+    if (!v.empty()) Bytes(v.data(), v.size() * bytes_per_element);
+  }
+  void Add(const Se3& T) {
+    Bytes(T.translation().data(), 3 * sizeof(double));
+    Bytes(T.rotation().coeffs().data(), 4 * sizeof(double));
+  }
+  uint64_t value() const { return h_ == 0 ? 1 : h_; }  // 0 means "not computed"
+
+ private:
+  uint64_t h_ = 14695981039346656037ull;
+};
+
+}  // namespace
+
+uint64_t SubmapFingerprint(const Submap& s) {
+  Hasher h;
+  h.Add(int(s.source));
+  h.Add(s.id);
+  for (double v : {s.camera.fx, s.camera.fy, s.camera.cx, s.camera.cy}) h.Add(v);
+  h.Add(s.keyframes.size());
+  for (const Keyframe& kf : s.keyframes) {
+    h.Add(kf.id);
+    h.Add(kf.timestamp);
+    h.Add(kf.T_cw);
+    static_assert(sizeof(Eigen::Vector2f) == 2 * sizeof(float));
+    h.AddArray(kf.keypoints);
+    h.AddArray(kf.octaves);
+    h.AddArray(kf.point_ids);
+  }
+  h.Add(s.points.size());
+  for (const MapPoint& p : s.points) {
+    h.Add(p.id);
+    h.Bytes(p.position.data(), 3 * sizeof(double));
+    h.Add(p.observations.size());
+    for (const MapPoint::Observation& o : p.observations) {
+      h.Add(o.keyframe_id);
+      h.Add(o.keypoint_index);
+    }
+  }
+  h.Add(s.frames.size());
+  for (const FrameRecord& f : s.frames) {
+    h.Add(f.timestamp);
+    h.Add(int(f.state));
+    h.Add(f.submap_id);
+    h.Add(f.T_wc);
+  }
+  h.Add(s.odometry.size());
+  for (const OdometryPose& o : s.odometry) {
+    h.Add(o.timestamp);
+    h.Add(o.T_wb);
+  }
+  return h.value();
+}
+
+void MergeMemo::BeginRun(const GlobalMap& map, const SearchSet& search, int64_t max_dt_ns) {
+  fingerprint_.assign(map.size(), 0);
+  membership_.assign(map.size(), 0);
+  used_.clear();
+  hits_ = misses_ = 0;
+  // Which of a back submap's keyframes are in F^search: all that pairing
+  // reads of the search set.
+  for (size_t i = 0; i < map.size(); ++i) {
+    const Submap& s = map.submap(int(i));
+    if (s.source != SubmapSource::kBack) continue;
+    std::vector<Timestamp> t;
+    for (const Keyframe& kf : s.keyframes) t.push_back(kf.timestamp);
+    std::sort(t.begin(), t.end());
+    Hasher h;
+    for (Timestamp ts : t) {
+      h.Add(ts);
+      h.Add(int(search.Contains(ts, max_dt_ns)));
+    }
+    membership_[i] = h.value();
+  }
+}
+
+uint64_t MergeMemo::Fingerprint(const GlobalMap& map, int i) {
+  if (fingerprint_[i] == 0) fingerprint_[i] = SubmapFingerprint(map.submap(i));
+  return fingerprint_[i];
+}
+
+MergeReport MergeMemo::Merge(GlobalMap* map, int front, int back, const SearchSet& search,
+                             const ManagerOptions& options) {
+  if (map->Connected(front, back)) return MergePair(map, front, back, search, options);
+  const Key key{Fingerprint(*map, front), Fingerprint(*map, back), membership_[back]};
+  used_.insert(key);
+  const auto it = entries_.find(key);
+  if (it != entries_.end()) {
+    ++hits_;
+    const Entry& e = it->second;
+    MergeReport r = e.report;
+    r.replayed = true;
+    if (!r.merged) {
+      spdlog::debug("merge {} <-> {} rejected (as in an earlier rebuild): {}", ToString(r.front), ToString(r.back),
+                    r.reason);
+      return r;
+    }
+    r.front_moved = JoinComponents(map, front, back, r.S_bf);
+    map->submap(front) = e.front_after;
+    for (const auto& [f, b] : e.fused) map->fused().push_back({front, f, back, b});
+    fingerprint_[front] = 0;
+    spdlog::info("merged {} with {} as in an earlier rebuild (neither changed): {} common points, {} fused",
+                 ToString(r.front), ToString(r.back), r.common_points, r.fused_points);
+    return r;
+  }
+  ++misses_;
+  const size_t fused_before = map->fused().size();
+  Entry e;
+  e.report = MergePair(map, front, back, search, options);
+  if (e.report.merged) {
+    e.front_after = map->submap(front);
+    for (size_t k = fused_before; k < map->fused().size(); ++k)
+      e.fused.emplace_back(map->fused()[k].dup_point, map->fused()[k].kept_point);
+    fingerprint_[front] = 0;
+  }
+  return entries_.insert_or_assign(key, std::move(e)).first->second.report;
+}
+
+void MergeMemo::EndRun() {
+  for (auto it = entries_.begin(); it != entries_.end();) it = used_.count(it->first) ? std::next(it) : entries_.erase(it);
+}
+
+}  // namespace rumi
