@@ -10,6 +10,8 @@
 // components, the front takes its stored post-merge state, the fused links
 // are restored. Only merges that involve a changed submap are computed again
 // (in a live session: the growing front submap and what follows from it).
+// The key does not hold the ManagerOptions: use one memo per set of options
+// (the service's are fixed for its lifetime).
 #include <cstdint>
 #include <map>
 #include <set>
