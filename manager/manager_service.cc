@@ -238,7 +238,8 @@ bool ManagerService::Rebuild(std::string* why) {
   GlobalMap map = CopyWithout(base_, replaced);
   for (const auto& kv : received_) map.AddSubmap(kv.second);
   stats_.reports = MergeAll(&map, options_.manager, &merge_memo_);
-  for (MergeReport& r : PlaceMergeAll(&map, options_.manager, &place_memo_)) stats_.reports.push_back(std::move(r));
+  for (MergeReport& r : PlaceMergeAll(&map, options_.manager, &place_memo_, &merge_memo_))
+    stats_.reports.push_back(std::move(r));
   for (MergeReport& r : OdometryMergeAll(&map, options_.manager)) stats_.reports.push_back(std::move(r));
   stats_.merges_replayed = merge_memo_.hits();
   stats_.merge_attempts = int(stats_.reports.size());

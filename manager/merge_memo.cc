@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "common/logging.h"
+#include "manager/place_merge.h"
 
 namespace rumi {
 namespace {
@@ -82,7 +83,7 @@ uint64_t SubmapFingerprint(const Submap& s) {
 void MergeMemo::BeginRun(const GlobalMap& map, const SearchSet& search, int64_t max_dt_ns) {
   fingerprint_.assign(map.size(), 0);
   membership_.assign(map.size(), 0);
-  used_.clear();
+  for (auto it = used_.begin(); it != used_.end();) it = std::get<0>(*it) == kBackMerge ? used_.erase(it) : std::next(it);
   hits_ = misses_ = 0;
   // Which of a back submap's keyframes are in F^search: all that pairing
   // reads of the search set.
@@ -106,10 +107,8 @@ uint64_t MergeMemo::Fingerprint(const GlobalMap& map, int i) {
   return fingerprint_[i];
 }
 
-MergeReport MergeMemo::Merge(GlobalMap* map, int front, int back, const SearchSet& search,
-                             const ManagerOptions& options) {
-  if (map->Connected(front, back)) return MergePair(map, front, back, search, options);
-  const Key key{Fingerprint(*map, front), Fingerprint(*map, back), membership_[back]};
+template <typename Compute>
+MergeReport MergeMemo::Attempt(GlobalMap* map, int front, int other, const Key& key, Compute compute) {
   used_.insert(key);
   const auto it = entries_.find(key);
   if (it != entries_.end()) {
@@ -118,13 +117,12 @@ MergeReport MergeMemo::Merge(GlobalMap* map, int front, int back, const SearchSe
     MergeReport r = e.report;
     r.replayed = true;
     if (!r.merged) {
-      spdlog::debug("merge {} <-> {} rejected (as in an earlier rebuild): {}", ToString(r.front), ToString(r.back),
-                    r.reason);
+      spdlog::debug("{} <-> {} rejected (as in an earlier rebuild): {}", ToString(r.front), ToString(r.back), r.reason);
       return r;
     }
-    r.front_moved = JoinComponents(map, front, back, r.S_bf);
+    r.front_moved = JoinComponents(map, front, other, r.S_bf);
     map->submap(front) = e.front_after;
-    for (const auto& [f, b] : e.fused) map->fused().push_back({front, f, back, b});
+    for (const auto& [f, b] : e.fused) map->fused().push_back({front, f, other, b});
     fingerprint_[front] = 0;
     spdlog::info("merged {} with {} as in an earlier rebuild (neither changed): {} common points, {} fused",
                  ToString(r.front), ToString(r.back), r.common_points, r.fused_points);
@@ -133,7 +131,7 @@ MergeReport MergeMemo::Merge(GlobalMap* map, int front, int back, const SearchSe
   ++misses_;
   const size_t fused_before = map->fused().size();
   Entry e;
-  e.report = MergePair(map, front, back, search, options);
+  e.report = compute();
   if (e.report.merged) {
     e.front_after = map->submap(front);
     for (size_t k = fused_before; k < map->fused().size(); ++k)
@@ -143,8 +141,30 @@ MergeReport MergeMemo::Merge(GlobalMap* map, int front, int back, const SearchSe
   return entries_.insert_or_assign(key, std::move(e)).first->second.report;
 }
 
-void MergeMemo::EndRun() {
-  for (auto it = entries_.begin(); it != entries_.end();) it = used_.count(it->first) ? std::next(it) : entries_.erase(it);
+MergeReport MergeMemo::Merge(GlobalMap* map, int front, int back, const SearchSet& search,
+                             const ManagerOptions& options) {
+  if (map->Connected(front, back)) return MergePair(map, front, back, search, options);
+  const Key key{kBackMerge, Fingerprint(*map, front), Fingerprint(*map, back), membership_[back]};
+  return Attempt(map, front, back, key, [&] { return MergePair(map, front, back, search, options); });
 }
+
+void MergeMemo::BeginPlaceRun(const GlobalMap& map) {
+  fingerprint_.assign(map.size(), 0);
+  for (auto it = used_.begin(); it != used_.end();) it = std::get<0>(*it) == kPlaceMerge ? used_.erase(it) : std::next(it);
+}
+
+MergeReport MergeMemo::Place(GlobalMap* map, int a, int b, const ManagerOptions& options) {
+  if (map->Connected(a, b)) return PlaceMergePair(map, a, b, options);
+  const Key key{kPlaceMerge, Fingerprint(*map, a), Fingerprint(*map, b), 0};
+  return Attempt(map, a, b, key, [&] { return PlaceMergePair(map, a, b, options); });
+}
+
+void MergeMemo::Drop(Kind kind) {
+  for (auto it = entries_.begin(); it != entries_.end();)
+    it = std::get<0>(it->first) == kind && !used_.count(it->first) ? entries_.erase(it) : std::next(it);
+}
+
+void MergeMemo::EndRun() { Drop(kBackMerge); }
+void MergeMemo::EndPlaceRun() { Drop(kPlaceMerge); }
 
 }  // namespace rumi

@@ -1,5 +1,5 @@
 #pragma once
-// Memo of MergePair outcomes across rebuilds. The manager rebuilds the global
+// Memo of MergePair (and PlaceMergePair) outcomes across rebuilds. The manager rebuilds the global
 // map from scratch whenever a submap arrives or grows, and a merge (mostly
 // its welding BA) costs about 0.15 s: a session of 32 losses took 10 s per
 // rebuild (merge_benchmark BM_RebuildSession). A merge's outcome depends only
@@ -29,24 +29,36 @@ uint64_t SubmapFingerprint(const Submap& s);
 
 class MergeMemo {
  public:
-  // Starts a MergeAll run over `map`'s current submaps with this F^search.
+  // Starts a MergeAll run over `map`'s current submaps with this F^search
+  // (and resets hits / misses).
   void BeginRun(const GlobalMap& map, const SearchSet& search, int64_t max_dt_ns);
   // MergePair, or its replay when the memo holds the same attempt.
   MergeReport Merge(GlobalMap* map, int front, int back, const SearchSet& search, const ManagerOptions& options);
-  // Keeps only the attempts of this run.
+  // Keeps only the MergePair attempts of this run.
   void EndRun();
 
+  // The same for PlaceMergeAll (front submap `a` is the one that moves and
+  // is welded, as in PlaceMergePair); hits and misses add to the run's.
+  void BeginPlaceRun(const GlobalMap& map);
+  MergeReport Place(GlobalMap* map, int a, int b, const ManagerOptions& options);
+  void EndPlaceRun();
+
   size_t size() const { return entries_.size(); }
-  int hits() const { return hits_; }      // of the last run
-  int misses() const { return misses_; }  // of the last run
+  int hits() const { return hits_; }      // since BeginRun
+  int misses() const { return misses_; }  // since BeginRun
 
  private:
-  using Key = std::tuple<uint64_t, uint64_t, uint64_t>;  // front state, back, back's search membership
+  enum Kind : uint64_t { kBackMerge = 1, kPlaceMerge = 2 };
+  // kind, moving front's state, the other submap, back's search membership
+  using Key = std::tuple<uint64_t, uint64_t, uint64_t, uint64_t>;
   struct Entry {
     MergeReport report;
-    Submap front_after;                                 // merged only
-    std::vector<std::pair<int64_t, int64_t>> fused;     // front point id, back point id
+    Submap front_after;                              // merged only
+    std::vector<std::pair<int64_t, int64_t>> fused;  // front point id, other submap's point id
   };
+  template <typename Compute>
+  MergeReport Attempt(GlobalMap* map, int front, int other, const Key& key, Compute compute);
+  void Drop(Kind kind);
   uint64_t Fingerprint(const GlobalMap& map, int i);
 
   std::map<Key, Entry> entries_;

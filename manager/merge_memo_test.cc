@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include "manager/place_merge.h"
 #include "manager/test_scenario.h"
 
 namespace rumi {
@@ -142,6 +143,46 @@ TEST(MergeMemo, ReplaysRejectionsWithoutMerging) {
   EXPECT_TRUE(reports[0].replayed);
   EXPECT_FALSE(reports[0].reason.empty());
   EXPECT_FALSE(again.Connected(0, 1));
+}
+
+TEST(MergeMemo, ReplaysPlaceMergesOfUnchangedFronts) {
+  // Three fronts of one place, no back: only the place merge joins them.
+  SyntheticSceneOptions so;
+  so.num_points = 1200;
+  const SyntheticScene scene = MakeSyntheticScene(so);
+  std::vector<Submap> fronts;
+  for (int k = 0; k < 3; ++k) {
+    SyntheticSubmap f = MakeSyntheticFront(scene, k + 1, 36 * k, 36 * k + 30, RandomSim3(20 + k), 30 + k);
+    AttachPointDescriptors(&f, scene.points.size(), 100, 20, 40 + k);
+    fronts.push_back(f.submap);
+  }
+  auto inputs = [&] {
+    GlobalMap map;
+    for (const Submap& f : fronts) map.AddSubmap(f);
+    return map;
+  };
+  const ManagerOptions o;
+  GlobalMap plain = inputs();
+  ASSERT_EQ(Merged(PlaceMergeAll(&plain, o)), 2);
+  MergeMemo memo;
+  GlobalMap first = inputs();
+  EXPECT_EQ(Merged(PlaceMergeAll(&first, o, nullptr, &memo)), 2);
+  EXPECT_EQ(memo.hits(), 0);
+  ExpectSameMap(plain, first);
+  GlobalMap second = inputs();
+  EXPECT_EQ(Merged(PlaceMergeAll(&second, o, nullptr, &memo)), 2);
+  EXPECT_EQ(memo.hits(), 2);
+  ExpectSameMap(first, second);
+
+  // The newest front grew: its merge is computed again, the other replayed.
+  fronts[2].keyframes.back().T_cw.translation().y() += 0.002;
+  GlobalMap plain_grown = inputs();
+  PlaceMergeAll(&plain_grown, o);
+  GlobalMap third = inputs();
+  const int hits_before = memo.hits();
+  EXPECT_EQ(Merged(PlaceMergeAll(&third, o, nullptr, &memo)), 2);
+  EXPECT_EQ(memo.hits() - hits_before, 1);
+  ExpectSameMap(plain_grown, third);
 }
 
 }  // namespace

@@ -1,5 +1,7 @@
 #include "manager/place_merge.h"
 
+#include "manager/merge_memo.h"
+
 #include <algorithm>
 #include <chrono>
 #include <map>
@@ -139,9 +141,11 @@ MergeReport PlaceMergePair(GlobalMap* map, int a, int b, const ManagerOptions& o
   return r;
 }
 
-std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& options, PlaceMergeMemo* memo) {
+std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& options, PlaceMergeMemo* memo,
+                                       MergeMemo* merge_memo) {
   std::vector<MergeReport> reports;
   if (!options.place_merge) return reports;
+  if (merge_memo) merge_memo->BeginPlaceRun(*map);
   std::vector<std::pair<int, int>> tried;  // data unchanged: no retry
   for (bool progress = true; progress;) {
     progress = false;
@@ -152,7 +156,7 @@ std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& opt
         if (std::find(tried.begin(), tried.end(), std::make_pair(i, j)) != tried.end()) continue;
         tried.emplace_back(i, j);
         if (memo && memo->Rejected(map->submap(i), map->submap(j))) continue;
-        reports.push_back(PlaceMergePair(map, i, j, options));
+        reports.push_back(merge_memo ? merge_memo->Place(map, i, j, options) : PlaceMergePair(map, i, j, options));
         if (reports.back().merged) {
           progress = true;
         } else if (memo) {
@@ -161,6 +165,7 @@ std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& opt
       }
     }
   }
+  if (merge_memo) merge_memo->EndPlaceRun();
   return reports;
 }
 

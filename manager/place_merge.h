@@ -55,8 +55,9 @@ class PlaceMergeMemo {
 
 // Tries every pair of front submaps in different components, repeating until
 // no merge succeeds. No-op when options.place_merge is off. With a memo,
-// pairs it holds are skipped and new rejections are added to it.
+// pairs it holds are skipped and new rejections are added to it. With a
+// merge memo, attempts on unchanged submaps are replayed (merge_memo.h).
 std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& options,
-                                       PlaceMergeMemo* memo = nullptr);
+                                       PlaceMergeMemo* memo = nullptr, MergeMemo* merge_memo = nullptr);
 
 }  // namespace rumi
