@@ -4,35 +4,50 @@
 
 namespace rumi {
 
-bool BackOptions::Check(std::string* why) const {
-  auto fail = [why](const std::string& m) {
-    if (why) *why = m;
-    return false;
-  };
-  if (colmap_path.empty()) return fail("colmap_path is empty");
-  if (num_threads < 1 || num_threads > 64) return fail("num_threads must be in [1, 64]");
-  if (max_num_features < 64 || max_num_features > 65536)
-    return fail("max_num_features must be in [64, 65536]");
-  if (!(sift_peak_threshold >= 0.0 && sift_peak_threshold <= 1.0))
-    return fail("sift_peak_threshold must be in [0, 1]");
-  if (!(retry_peak_threshold >= 0.0 && retry_peak_threshold <= 1.0))
-    return fail("retry_peak_threshold must be in [0, 1]");
-  if (!(retry_below_registered >= 0.0 && retry_below_registered <= 1.0))
-    return fail("retry_below_registered must be in [0, 1]");
-  if (sift_first_octave < -1 || sift_first_octave > 2) return fail("sift_first_octave must be in [-1, 2]");
-  if (sift_upsample_below_width < 0) return fail("sift_upsample_below_width must be >= 0");
-  if (matcher != "exhaustive" && matcher != "sequential")
-    return fail("matcher must be 'exhaustive' or 'sequential' (got '" + matcher + "')");
-  if (sequential_overlap < 1) return fail("sequential_overlap must be >= 1");
-  if (!(step_timeout_s > 0.0)) return fail("step_timeout_s must be > 0");
-  if (min_registered_images < 2) return fail("min_registered_images must be >= 2");
-  if (min_point_observations < 2) return fail("min_point_observations must be >= 2");
-  if (!(track_completion_px >= 0 && track_completion_px <= 20)) return fail("track_completion_px must be in [0, 20]");
-  if (orb_features != 0 && (orb_features < 50 || orb_features > 20000))
-    return fail("orb_features must be 0 (off) or in [50, 20000]");
-  if (max_queue_windows < 1) return fail("max_queue_windows must be >= 1");
-  return true;
+const OptionSpec<BackOptions>& BackOptions::Spec() {
+  using O = BackOptions;
+  static const auto* spec = [] {
+    auto* s = new OptionSpec<O>("back");
+    s->Text("colmap_path", &O::colmap_path, "COLMAP executable (PATH lookup when no '/')", true);
+    s->Text("workspace_dir", &O::workspace_dir, "root of per-window COLMAP workspaces; '': $TMPDIR/rumi-back");
+    s->Flag("keep_workspaces", &O::keep_workspaces, "keep each window's COLMAP folder (debugging)");
+    s->Number("num_threads", &O::num_threads, AtLeast(1), AtMost(64), "threads per COLMAP step");
+    s->Number("max_num_features", &O::max_num_features, AtLeast(64), AtMost(65536), "SIFT features per image");
+    s->Number("sift_first_octave", &O::sift_first_octave, AtLeast(-1), AtMost(2), "-1 upsamples (slower)");
+    s->Number("sift_upsample_below_width", &O::sift_upsample_below_width, AtLeast(0), AtMost(100000),
+              "images narrower than this are upsampled anyway; 0: never");
+    s->Choice("matcher", &O::matcher, {"exhaustive", "sequential"}, "COLMAP matcher");
+    s->Number("sequential_overlap", &O::sequential_overlap, AtLeast(1), AtMost(1000),
+              "neighbours matched by the sequential matcher");
+    s->Number("step_timeout_s", &O::step_timeout_s, Above(0.0), AtMost(86400.0),
+              "per COLMAP step; its process group is killed after it");
+    s->Number("min_registered_images", &O::min_registered_images, AtLeast(2), AtMost(100000),
+              "smaller models are dropped");
+    s->Number("min_point_observations", &O::min_point_observations, AtLeast(2), AtMost(100000),
+              "points seen by fewer images are dropped");
+    s->Number("track_completion_px", &O::track_completion_px, AtLeast(0.0), AtMost(20.0),
+              "track completion radius by reprojection; 0: off");
+    s->Number("orb_features", &O::orb_features, AtLeast(0), AtMost(20000),
+              "ORB keypoints added to each back keyframe (0: off, else >= 50)");
+    s->Number("max_queue_windows", &O::max_queue_windows, AtLeast(1), AtMost(1000),
+              "windows waiting; the oldest is dropped beyond it");
+    s->Flag("low_priority", &O::low_priority, "SCHED_IDLE (or nice 19) for rumi-back and COLMAP");
+    s->Flag("normalize_contrast", &O::normalize_contrast, "stretch grey levels of dark or washed-out frames");
+    s->Number("sift_peak_threshold", &O::sift_peak_threshold, AtLeast(0.0), AtMost(1.0),
+              "COLMAP SiftExtraction.peak_threshold; 0: COLMAP's default");
+    s->Number("retry_peak_threshold", &O::retry_peak_threshold, AtLeast(0.0), AtMost(1.0),
+              "peak threshold of the retry; 0: never retry");
+    s->Number("retry_below_registered", &O::retry_below_registered, AtLeast(0.0), AtMost(1.0),
+              "retry when the largest model holds less than this share of the window");
+    s->Flag("sift_domain_size_pooling", &O::sift_domain_size_pooling, "DSP-SIFT descriptors");
+    s->Rule("orb_features must be 0 (off) or in [50, 20000]",
+            [](const O& o) { return o.orb_features == 0 || o.orb_features >= 50; });
+    return s;
+  }();
+  return *spec;
 }
+
+bool BackOptions::Check(std::string* why) const { return Spec().Check(*this, why); }
 
 std::string BackOptions::WorkspaceRoot() const {
   if (!workspace_dir.empty()) return workspace_dir;
@@ -40,32 +55,6 @@ std::string BackOptions::WorkspaceRoot() const {
   std::filesystem::path tmp = std::filesystem::temp_directory_path(ec);
   if (ec) tmp = "/tmp";
   return (tmp / "rumi-back").string();
-}
-
-void ReadOptions(ConfigSection& s, BackOptions* o) {
-  s.Read("colmap_path", &o->colmap_path);
-  s.Read("workspace_dir", &o->workspace_dir);
-  s.Read("keep_workspaces", &o->keep_workspaces);
-  s.ReadInRange("num_threads", &o->num_threads, 1, 64);
-  s.ReadInRange("max_num_features", &o->max_num_features, 64, 65536);
-  s.Read("normalize_contrast", &o->normalize_contrast);
-  s.Read("sift_domain_size_pooling", &o->sift_domain_size_pooling);
-  s.ReadInRange("sift_peak_threshold", &o->sift_peak_threshold, 0.0, 1.0);
-  s.ReadInRange("retry_peak_threshold", &o->retry_peak_threshold, 0.0, 1.0);
-  s.ReadInRange("retry_below_registered", &o->retry_below_registered, 0.0, 1.0);
-  s.ReadInRange("sift_first_octave", &o->sift_first_octave, -1, 2);
-  s.ReadInRange("sift_upsample_below_width", &o->sift_upsample_below_width, 0, 100000);
-  if (s.Read("matcher", &o->matcher) && o->matcher != "exhaustive" && o->matcher != "sequential")
-    s.Fail("matcher", "must be 'exhaustive' or 'sequential'");
-  s.ReadInRange("sequential_overlap", &o->sequential_overlap, 1, 1000);
-  s.ReadInRange("step_timeout_s", &o->step_timeout_s, 0.001, 86400.0);
-  s.ReadInRange("min_registered_images", &o->min_registered_images, 2, 100000);
-  s.ReadInRange("min_point_observations", &o->min_point_observations, 2, 100000);
-  s.ReadInRange("track_completion_px", &o->track_completion_px, 0.0, 20.0);
-  s.ReadInRange("orb_features", &o->orb_features, 0, 20000);
-  s.ReadInRange("max_queue_windows", &o->max_queue_windows, 1, 1000);
-  s.Read("low_priority", &o->low_priority);
-  // Cross-field checks: callers run CheckOptions(o, root, "back").
 }
 
 }  // namespace rumi

@@ -3,7 +3,7 @@
 // kept of the result. Read from the `back:` section of a rumi config.
 #include <string>
 
-#include "common/config.h"
+#include "common/option_spec.h"
 
 namespace rumi {
 
@@ -57,11 +57,10 @@ struct BackOptions {
   // window (lost frames 0.016-0.023 -> 0.011 m), not end to end (docs/back.md).
   bool sift_domain_size_pooling = false;
 
+  static const OptionSpec<BackOptions>& Spec();  // section `back:`
   bool Check(std::string* why = nullptr) const;
   // Resolved workspace root (workspace_dir or the default under $TMPDIR).
   std::string WorkspaceRoot() const;
 };
-
-void ReadOptions(ConfigSection& s, BackOptions* o);
 
 }  // namespace rumi

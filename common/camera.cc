@@ -10,8 +10,6 @@
 namespace rumi {
 
 namespace {
-bool Finite(double v) { return std::isfinite(v); }
-
 // Guards the lazy construction of the undistortion maps (they are shared by
 // copies of a camera through cv::Mat reference counting, read-only once built).
 std::mutex& MapMutex() {
@@ -19,26 +17,6 @@ std::mutex& MapMutex() {
   return m;
 }
 }  // namespace
-
-bool PinholeCameraOptions::Check(std::string* why) const {
-  auto fail = [why](const std::string& msg) {
-    if (why) *why = msg;
-    return false;
-  };
-  if (width <= 0 || height <= 0) {
-    return fail("image size must be positive (width " + std::to_string(width) + ", height " +
-                std::to_string(height) + ")");
-  }
-  if (!Finite(fx) || !Finite(fy) || fx == 0.0 || fy == 0.0) {
-    return fail("focal lengths must be finite and non-zero (fx " + std::to_string(fx) + ", fy " +
-                std::to_string(fy) + ")");
-  }
-  if (!Finite(cx) || !Finite(cy)) return fail("principal point must be finite");
-  if (!Finite(k1) || !Finite(k2) || !Finite(p1) || !Finite(p2) || !Finite(k3)) {
-    return fail("distortion coefficients must be finite");
-  }
-  return true;
-}
 
 bool PinholeCamera::HasDistortion() const {
   return o_.k1 != 0.0 || o_.k2 != 0.0 || o_.p1 != 0.0 || o_.p2 != 0.0 || o_.k3 != 0.0;

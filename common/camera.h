@@ -1,7 +1,8 @@
 #pragma once
 // Pinhole camera with radial-tangential distortion (OpenCV / EuRoC "radtan":
-// k1 k2 p1 p2 [k3]). Focal lengths may be negative (ICL-NUIM has fy < 0):
-// projection uses them as they are, so flipped axes stay consistent.
+// k1 k2 p1 p2 [k3]). Focal lengths are positive; ICL-NUIM publishes fy < 0
+// (its renderer's y axis points up), allowed with flipped_y: projection uses
+// fy as it is, so the flipped axis stays consistent.
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 #include <string>
@@ -9,11 +10,17 @@
 
 namespace rumi {
 
+template <typename O> class OptionSpec;
+
 struct PinholeCameraOptions {
   int width = 640;
   int height = 480;
   double fx = 525.0, fy = 525.0, cx = 319.5, cy = 239.5;
   double k1 = 0, k2 = 0, p1 = 0, p2 = 0, k3 = 0;
+  bool flipped_y = false;  // fy < 0 on purpose (ICL-NUIM)
+  // fx > 0, fy > 0 (< 0 with flipped_y), principal point inside the image,
+  // everything finite (common/camera_config.cc declares the keys).
+  static const OptionSpec<PinholeCameraOptions>& Spec();
   bool Check(std::string* why = nullptr) const;
 };
 

@@ -15,7 +15,7 @@ const std::string kConfigs = std::string(RUMI_SOURCE_DIR) + "/configs";
 TEST(CameraConfig, ReadsAllKeys) {
   ConfigSection root = LoadConfigString(
       "camera: {width: 752, height: 480, fx: 458.654, fy: -457.296, cx: 367.215, cy: 248.375,\n"
-      "         k1: -0.28, k2: 0.07, p1: 0.0002, p2: 1.8e-05, k3: 0.01}\n",
+      "         k1: -0.28, k2: 0.07, p1: 0.0002, p2: 1.8e-05, k3: 0.01, flipped_y: true}\n",
       "c.yaml");
   ConfigSection cam = root.Child("camera");
   PinholeCameraOptions o;
@@ -57,7 +57,21 @@ TEST(CameraConfig, Errors) {
   e = error("camera: {fx: 500, k4: 0.1}\n");
   EXPECT_NE(e.find("camera.k4"), std::string::npos) << e;
   e = error("camera: {cx: .nan}\n");
-  EXPECT_NE(e.find("principal"), std::string::npos) << e;
+  EXPECT_NE(e.find("camera.cx"), std::string::npos) << e;
+  // Reported by a new user: both were accepted, and cx -5000 made the ATE 9x worse.
+  e = error("camera: {fx: -262.5}\n");
+  EXPECT_NE(e.find("focal lengths must be positive"), std::string::npos) << e;
+  e = error("camera: {cx: -5000}\n");
+  EXPECT_NE(e.find("principal point"), std::string::npos) << e;
+  e = error("camera: {width: 320, height: 240, cx: 319.5, cy: 239.5, fx: 262.5, fy: 262.5}\n");
+  EXPECT_EQ(e, "");  // inside
+  e = error("camera: {width: 320, height: 240, cx: 639.5}\n");
+  EXPECT_NE(e.find("outside the 320x240 image"), std::string::npos) << e;
+  e = error("camera: {fy: -480}\n");
+  EXPECT_NE(e.find("flipped_y: true"), std::string::npos) << e;
+  e = error("camera: {fy: 480, flipped_y: true}\n");
+  EXPECT_NE(e.find("fy must be negative"), std::string::npos) << e;
+  EXPECT_EQ(error("camera: {fy: -480, flipped_y: true}\n"), "");
   EXPECT_EQ(error("camera: {fx: 500}\n"), "");
 }
 

@@ -44,6 +44,7 @@ PinholeCameraOptions IclOptions() {  // fy < 0, no distortion
   PinholeCameraOptions o;
   o.fx = 481.20;
   o.fy = -480.0;
+  o.flipped_y = true;
   o.cx = 319.5;
   o.cy = 239.5;
   return o;
@@ -52,13 +53,14 @@ PinholeCameraOptions IclOptions() {  // fy < 0, no distortion
 PinholeCameraOptions NegativeFyDistorted() {
   PinholeCameraOptions o = EurocOptions();
   o.fy = -o.fy;
+  o.flipped_y = true;
   return o;
 }
 
 TEST(PinholeCameraOptions, CheckRejectsBadValues) {
   std::string why;
   EXPECT_TRUE(PinholeCameraOptions().Check(&why)) << why;
-  EXPECT_TRUE(IclOptions().Check(&why)) << why;  // negative fy is legal
+  EXPECT_TRUE(IclOptions().Check(&why)) << why;  // negative fy is legal with flipped_y
   PinholeCameraOptions o;
   o.fx = 0;
   EXPECT_FALSE(o.Check(&why));
@@ -69,7 +71,7 @@ TEST(PinholeCameraOptions, CheckRejectsBadValues) {
   o = PinholeCameraOptions();
   o.width = 0;
   EXPECT_FALSE(o.Check(&why));
-  EXPECT_NE(why.find("size"), std::string::npos) << why;
+  EXPECT_NE(why.find("width"), std::string::npos) << why;
   o = PinholeCameraOptions();
   o.height = -5;
   EXPECT_FALSE(o.Check());

@@ -16,6 +16,7 @@ PinholeCameraOptions IclCameraOptions() {
   o.height = 480;
   o.fx = 481.20;
   o.fy = -480.00;
+  o.flipped_y = true;
   o.cx = 319.5;
   o.cy = 239.5;
   return o;

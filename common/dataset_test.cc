@@ -298,9 +298,13 @@ TEST(DatasetTum, CameraFromFolderNameOrConfig) {
   EXPECT_NE(e.find("freiburg"), std::string::npos) << e;
   WriteText(d / "cam.yaml", "camera: {fx: 517.306408, fy: 516.469215, cx: 318.643040, cy: 255.313989}\n");
   o.config_path = d / "cam.yaml";
+  // The size comes from the 64x48 images: that principal point lies outside.
+  EXPECT_NE(ErrorOf(o).find("principal point (318.643040, 255.313989) lies outside the 64x48 image"),
+            std::string::npos) << ErrorOf(o);
+  for (int i = 0; i < 2; ++i) WriteImage(d / ("images/" + std::to_string(i) + ".png"), i, 640, 480);
   auto src = OpenDataset(o);
   EXPECT_EQ(src->camera().fx(), 517.306408);
-  EXPECT_EQ(src->camera().width(), 64);
+  EXPECT_EQ(src->camera().width(), 640);
 }
 
 TEST(DatasetIcl, FakeFolderWithGtFreiburg) {
@@ -359,7 +363,7 @@ TEST(DatasetKitti, NativeLayout) {
   for (int i = 0; i < 4; ++i) {
     char name[32];
     std::snprintf(name, sizeof(name), "image_0/%06d.png", i);
-    WriteImage(d / name, i, 80, 30);
+    WriteImage(d / name, i, 1226, 370);
     char t[64];
     std::snprintf(t, sizeof(t), "%e\n", 0.103751 * i);  // KITTI writes exponent notation
     times += t;
@@ -377,7 +381,7 @@ TEST(DatasetKitti, NativeLayout) {
     EXPECT_TRUE(src->ground_truth().empty());
     EXPECT_EQ(src->camera().fx(), 707.0912);
     EXPECT_EQ(src->camera().cy(), 183.1104);
-    EXPECT_EQ(src->camera().width(), 80);
+    EXPECT_EQ(src->camera().width(), 1226);
   }
   // Official place of the poses: <root>/poses/<seq>.txt beside sequences/.
   WriteText(d.path() + "/../../poses/07.txt", poses);

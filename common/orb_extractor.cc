@@ -156,15 +156,26 @@ int DescriptorDistance(const cv::Mat& a, const cv::Mat& b) {
   return DescriptorDistance(a.ptr<uint8_t>(), b.ptr<uint8_t>());
 }
 
-bool OrbExtractorOptions::Check(std::string* why) const {
-  auto fail = [&](const char* m) { if (why) *why = m; return false; };
-  if (num_features != 0 && num_features < 50) return fail("orb.num_features must be 0 (auto) or >= 50");
-  if (num_levels < 1 || num_levels > 16) return fail("orb.num_levels must be in [1, 16]");
-  if (!(scale_factor > 1.0 && scale_factor < 2.0)) return fail("orb.scale_factor must be in (1, 2)");
-  if (fast_min_threshold < 1 || fast_threshold < fast_min_threshold)
-    return fail("orb: need 1 <= fast_min_threshold <= fast_threshold");
-  if (cell_size < 8) return fail("orb.cell_size must be >= 8");
-  return true;
+const OptionSpec<OrbExtractorOptions>& OrbExtractorOptions::Spec() {
+  using O = OrbExtractorOptions;
+  static const auto* spec = [] {
+    auto* s = new OptionSpec<O>("orb");
+    s->Number("num_features", &O::num_features, AtLeast(0), AtMost(100000),
+              "features per frame; 0: auto (1000 up to 640x480, 2000 above)");
+    s->Number("num_levels", &O::num_levels, AtLeast(1), AtMost(16), "pyramid levels");
+    s->Number("scale_factor", &O::scale_factor, Above(1.0), Below(2.0), "pyramid scale between levels");
+    s->Number("fast_threshold", &O::fast_threshold, AtLeast(1), AtMost(255), "preferred FAST corner strength");
+    s->Number("fast_min_threshold", &O::fast_min_threshold, AtLeast(1), AtMost(255),
+              "fallback FAST threshold in low-texture cells");
+    s->Number("cell_size", &O::cell_size, AtLeast(8), AtMost(1024), "grid bucket side in pixels (level 0)");
+    s->Rule("num_features must be 0 (auto) or >= 50", [](const O& o) { return o.num_features == 0 || o.num_features >= 50; });
+    s->Rule("fast_min_threshold must be <= fast_threshold",
+            [](const O& o) { return o.fast_min_threshold <= o.fast_threshold; });
+    return s;
+  }();
+  return *spec;
 }
+
+bool OrbExtractorOptions::Check(std::string* why) const { return Spec().Check(*this, why); }
 
 }  // namespace rumi

@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "common/option_spec.h"
+
 namespace rumi {
 
 struct OrbExtractorOptions {
@@ -20,6 +22,7 @@ struct OrbExtractorOptions {
   int fast_threshold = 20;    // preferred corner strength
   int fast_min_threshold = 7; // fallback in low-texture cells
   int cell_size = 32;         // grid bucket side in pixels (level 0)
+  static const OptionSpec<OrbExtractorOptions>& Spec();  // section front.orb
   bool Check(std::string* why = nullptr) const;
 };
 

@@ -5,86 +5,102 @@
 
 namespace rumi {
 
-bool FrontOptions::Check(std::string* why) const {
-  auto fail = [&](const char* m) { if (why) *why = m; return false; };
-  if (!orb.Check(why)) return false;
-  if (!hier.Check(why)) return false;
-  if (!(init_search_radius_frac > 0 && init_search_radius_frac <= 1)) return fail("init_search_radius_frac must be in (0, 1]");
-  if (init_min_matches < 8) return fail("init_min_matches must be >= 8");
-  if (init_min_triangulated < 8) return fail("init_min_triangulated must be >= 8");
-  if (reinit_min_triangulated < init_min_triangulated)
-    return fail("reinit_min_triangulated must be >= init_min_triangulated");
-  if (!(init_min_parallax_deg > 0) || !(reinit_min_parallax_deg > 0))
-    return fail("init_min_parallax_deg and reinit_min_parallax_deg must be > 0");
-  if (init_max_frames < 1) return fail("init_max_frames must be >= 1");
-  if (!(motion_search_radius > 0) || !(local_search_radius > 0)) return fail("search radii must be > 0");
-  if (min_tracked_inliers < 10) return fail("min_tracked_inliers must be >= 10");
-  if (!(short_term_s >= 0) || !(mid_term_dist >= 0)) return fail("short_term_s and mid_term_dist must be >= 0");
-  if (max_local_keyframes < 1) return fail("max_local_keyframes must be >= 1");
-  if (!(fps >= 0)) return fail("fps must be >= 0 (0: from timestamps)");
-  if (!(kf_tracked_ratio > 0 && kf_tracked_ratio <= 1)) return fail("kf_tracked_ratio must be in (0, 1]");
-  if (triangulation_neighbours < 1) return fail("triangulation_neighbours must be >= 1");
-  if (local_ba_iterations < 0 || !(local_ba_max_time_s > 0)) return fail("local BA limits must be positive");
-  if (local_ba_max_keyframes < 1) return fail("local_ba_max_keyframes must be >= 1");
-  if (local_ba_max_fixed < 0) return fail("local_ba_max_fixed must be >= 0");
-  if (max_ba_skips < 0) return fail("max_ba_skips must be >= 0");
-  if (!(kf_weak_ratio >= 0 && kf_weak_ratio <= 1)) return fail("kf_weak_ratio must be in [0, 1]");
-  if (!(kf_cull_redundancy > 0 && kf_cull_redundancy <= 1)) return fail("kf_cull_redundancy must be in (0, 1]");
-  if (!(reloc_time_s >= 0)) return fail("reloc_time_s must be >= 0");
-  if (reloc_min_inliers < 10) return fail("reloc_min_inliers must be >= 10");
-  return true;
+const OptionSpec<HierarchicalOptions>& HierarchicalOptions::Spec() {
+  using O = HierarchicalOptions;
+  static const auto* spec = [] {
+    auto* s = new OptionSpec<O>("hierarchical_mode");
+    s->Number("eta", &O::eta, AtLeast(0.0), AtMost(1e4), "min feature density: keypoints per 100x100 px");
+    s->Number("lambda", &O::lambda, AtLeast(1), AtMost(100000), "window length (frames) of the stall counter");
+    s->Number("stall_threshold", &O::stall_threshold, AtLeast(1), AtMost(100000),
+              "stall count (submap unchanged) that turns coarse");
+    s->Number("sparse_frames", &O::sparse_frames, AtLeast(1), AtMost(100000),
+              "consecutive sparse frames that turn coarse");
+    s->Number("resume_frames", &O::resume_frames, AtLeast(1), AtMost(100000),
+              "consecutive dense frames that go back to fine");
+    s->Rule("stall_threshold must be <= lambda", [](const O& o) { return o.stall_threshold <= o.lambda; });
+    return s;
+  }();
+  return *spec;
 }
 
-void ReadOptions(ConfigSection& s, OrbExtractorOptions* o) {
-  s.ReadInRange("num_features", &o->num_features, 0, 100000);
-  s.ReadInRange("num_levels", &o->num_levels, 1, 16);
-  s.ReadInRange("scale_factor", &o->scale_factor, 1.01, 1.99);
-  s.ReadInRange("fast_threshold", &o->fast_threshold, 1, 255);
-  s.ReadInRange("fast_min_threshold", &o->fast_min_threshold, 1, 255);
-  s.ReadInRange("cell_size", &o->cell_size, 8, 1024);
-  CheckOptions(*o, s, "orb");
+bool HierarchicalOptions::Check(std::string* why) const { return Spec().Check(*this, why); }
+
+namespace {
+// odometry_T_bc: [tx, ty, tz, qx, qy, qz, qw].
+void ReadPose(ConfigSection& s, const std::string& key, Se3* T) {
+  std::vector<double> v;
+  if (!s.Read(key, &v)) return;
+  if (v.size() != 7)
+    s.Fail(key, "expected [tx, ty, tz, qx, qy, qz, qw], got " + std::to_string(v.size()) + " values");
+  const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
+  if (!(std::abs(q.norm() - 1.0) < 1e-3)) s.Fail(key, "rotation is not a unit quaternion (x y z w order)");
+  *T = Se3(q.normalized(), Eigen::Vector3d(v[0], v[1], v[2]));
+}
+}  // namespace
+
+const OptionSpec<FrontOptions>& FrontOptions::Spec() {
+  using O = FrontOptions;
+  static const auto* spec = [] {
+    auto* s = new OptionSpec<O>("front");
+    s->Section("orb", &O::orb, OrbExtractorOptions::Spec());
+    s->Number("init_search_radius_frac", &O::init_search_radius_frac, Above(0.0), AtMost(1.0),
+              "initialisation match window radius / image width");
+    s->Number("init_min_matches", &O::init_min_matches, AtLeast(8), AtMost(100000), "matches to try an initialisation");
+    s->Number("init_min_triangulated", &O::init_min_triangulated, AtLeast(8), AtMost(100000),
+              "points a first map needs");
+    s->Number("reinit_min_triangulated", &O::reinit_min_triangulated, AtLeast(8), AtMost(100000),
+              "points a re-initialisation needs");
+    s->Number("init_min_parallax_deg", &O::init_min_parallax_deg, Above(0.0), AtMost(90.0),
+              "parallax of a first map");
+    s->Number("reinit_min_parallax_deg", &O::reinit_min_parallax_deg, Above(0.0), AtMost(90.0),
+              "parallax of a re-initialisation");
+    s->Number("init_max_frames", &O::init_max_frames, AtLeast(1), AtMost(100000),
+              "initialisation reference frame replaced after this many tries");
+    s->Number("motion_search_radius", &O::motion_search_radius, AtLeast(0.5), AtMost(500.0),
+              "motion-model search radius, px at level 0");
+    s->Number("local_search_radius", &O::local_search_radius, AtLeast(0.1), AtMost(100.0),
+              "local-map search radius factor");
+    s->Number("min_tracked_inliers", &O::min_tracked_inliers, AtLeast(10), AtMost(100000),
+              "inliers below which a frame is lost");
+    s->Number("short_term_s", &O::short_term_s, AtLeast(0.0), AtMost(1e6), "short-term association window Th_t, s");
+    s->Number("mid_term_dist", &O::mid_term_dist, AtLeast(0.0), AtMost(1e6),
+              "mid-term distance Th_p, initial median depths");
+    s->Number("max_local_keyframes", &O::max_local_keyframes, AtLeast(1), AtMost(10000), "local map size");
+    s->Number("fps", &O::fps, AtLeast(0.0), AtMost(1000.0), "frame rate for the keyframe cadence; 0: from timestamps");
+    s->Number("kf_tracked_ratio", &O::kf_tracked_ratio, Above(0.0), AtMost(1.0), "keyframe when tracked < ratio x ref");
+    s->Number("kf_weak_ratio", &O::kf_weak_ratio, AtLeast(0.0), AtMost(1.0),
+              "keyframe when inliers < ratio x their peak since the last one");
+    s->Flag("local_mapping_thread", &O::local_mapping_thread, "false: run mapping inline (deterministic, tests)");
+    s->Number("triangulation_neighbours", &O::triangulation_neighbours, AtLeast(1), AtMost(100),
+              "keyframes to triangulate with");
+    s->Number("local_ba_iterations", &O::local_ba_iterations, AtLeast(0), AtMost(1000), "local BA iterations");
+    s->Number("local_ba_max_time_s", &O::local_ba_max_time_s, AtLeast(1e-3), AtMost(100.0), "local BA time bound");
+    s->Number("local_ba_max_keyframes", &O::local_ba_max_keyframes, AtLeast(1), AtMost(1000), "free keyframes");
+    s->Number("local_ba_max_fixed", &O::local_ba_max_fixed, AtLeast(0), AtMost(1000), "fixed keyframes");
+    s->Number("kf_cull_redundancy", &O::kf_cull_redundancy, Above(0.0), AtMost(1.0), "keyframe culling ratio");
+    s->Number("max_ba_skips", &O::max_ba_skips, AtLeast(0), AtMost(1000),
+              "keyframes in a row without local BA when behind");
+    s->Number("reloc_time_s", &O::reloc_time_s, AtLeast(0.0), AtMost(1e6), "give up relocalising after this long");
+    s->Number("reloc_min_inliers", &O::reloc_min_inliers, AtLeast(10), AtMost(100000), "inliers of a relocalisation");
+    s->Flag("hierarchical", &O::hierarchical, "fine/coarse mode of the rat-robot paper");
+    s->Section("hierarchical_mode", &O::hier, HierarchicalOptions::Spec());
+    s->Custom({"odometry_T_bc", "", "[tx, ty, tz, qx, qy, qz, qw]",
+               "camera pose in the pose source's body frame; identity when omitted"},
+              [](ConfigSection& sec, O* o) { ReadPose(sec, "odometry_T_bc", &o->odometry_T_bc); }, nullptr,
+              [](const O& o) {
+                const auto& t = o.odometry_T_bc.translation();
+                const auto& q = o.odometry_T_bc.rotation();
+                return "[" + std::to_string(t.x()) + ", " + std::to_string(t.y()) + ", " + std::to_string(t.z()) +
+                       ", " + std::to_string(q.x()) + ", " + std::to_string(q.y()) + ", " + std::to_string(q.z()) +
+                       ", " + std::to_string(q.w()) + "]";
+              });
+    s->Rule("reinit_min_triangulated must be >= init_min_triangulated",
+            [](const O& o) { return o.reinit_min_triangulated >= o.init_min_triangulated; });
+    return s;
+  }();
+  return *spec;
 }
 
-void ReadOptions(ConfigSection& s, FrontOptions* o) {
-  ConfigSection orb = s.Child("orb");
-  ReadOptions(orb, &o->orb);
-  s.ReadInRange("init_search_radius_frac", &o->init_search_radius_frac, 1e-3, 1.0);
-  s.ReadInRange("init_min_matches", &o->init_min_matches, 8, 100000);
-  s.ReadInRange("init_min_triangulated", &o->init_min_triangulated, 8, 100000);
-  s.ReadInRange("reinit_min_triangulated", &o->reinit_min_triangulated, 8, 100000);
-  s.ReadInRange("init_min_parallax_deg", &o->init_min_parallax_deg, 0.01, 90.0);
-  s.ReadInRange("reinit_min_parallax_deg", &o->reinit_min_parallax_deg, 0.01, 90.0);
-  s.ReadInRange("init_max_frames", &o->init_max_frames, 1, 100000);
-  s.ReadInRange("motion_search_radius", &o->motion_search_radius, 0.5, 500.0);
-  s.ReadInRange("local_search_radius", &o->local_search_radius, 0.1, 100.0);
-  s.ReadInRange("min_tracked_inliers", &o->min_tracked_inliers, 10, 100000);
-  s.ReadInRange("short_term_s", &o->short_term_s, 0.0, 1e6);
-  s.ReadInRange("mid_term_dist", &o->mid_term_dist, 0.0, 1e6);
-  s.ReadInRange("max_local_keyframes", &o->max_local_keyframes, 1, 10000);
-  s.ReadInRange("fps", &o->fps, 0.0, 1000.0);
-  s.ReadInRange("kf_tracked_ratio", &o->kf_tracked_ratio, 0.01, 1.0);
-  s.ReadInRange("kf_weak_ratio", &o->kf_weak_ratio, 0.0, 1.0);
-  s.Read("local_mapping_thread", &o->local_mapping_thread);
-  s.ReadInRange("triangulation_neighbours", &o->triangulation_neighbours, 1, 100);
-  s.ReadInRange("local_ba_iterations", &o->local_ba_iterations, 0, 1000);
-  s.ReadInRange("local_ba_max_time_s", &o->local_ba_max_time_s, 1e-3, 100.0);
-  s.ReadInRange("local_ba_max_keyframes", &o->local_ba_max_keyframes, 1, 1000);
-  s.ReadInRange("local_ba_max_fixed", &o->local_ba_max_fixed, 0, 1000);
-  s.ReadInRange("kf_cull_redundancy", &o->kf_cull_redundancy, 0.01, 1.0);
-  s.ReadInRange("max_ba_skips", &o->max_ba_skips, 0, 1000);
-  s.ReadInRange("reloc_time_s", &o->reloc_time_s, 0.0, 1e6);
-  s.ReadInRange("reloc_min_inliers", &o->reloc_min_inliers, 10, 100000);
-  s.Read("hierarchical", &o->hierarchical);
-  ConfigSection h = s.Child("hierarchical_mode");
-  ReadOptions(h, &o->hier);
-  std::vector<double> T;
-  if (s.Read("odometry_T_bc", &T)) {
-    if (T.size() != 7) s.Fail("odometry_T_bc", "expected [tx, ty, tz, qx, qy, qz, qw], got " + std::to_string(T.size()) + " values");
-    const Eigen::Quaterniond q(T[6], T[3], T[4], T[5]);
-    if (!(std::abs(q.norm() - 1.0) < 1e-3)) s.Fail("odometry_T_bc", "rotation is not a unit quaternion (x y z w order)");
-    o->odometry_T_bc = Se3(q, Eigen::Vector3d(T[0], T[1], T[2]));
-  }
-  CheckOptions(*o, s, "front");
-}
+bool FrontOptions::Check(std::string* why) const { return Spec().Check(*this, why); }
 
 }  // namespace rumi

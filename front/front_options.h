@@ -2,7 +2,7 @@
 // Options of the realtime front end (config section `front:`).
 #include <string>
 
-#include "common/config.h"
+#include "common/option_spec.h"
 #include "common/geometry.h"
 #include "common/orb_extractor.h"
 #include "front/hierarchical.h"
@@ -61,11 +61,9 @@ struct FrontOptions {
   // become camera poses (coarse poses, submap links, Submap::odometry).
   Se3 odometry_T_bc;
 
+  // Section `front:` (sub-sections `orb:` and `hierarchical_mode:`).
+  static const OptionSpec<FrontOptions>& Spec();
   bool Check(std::string* why = nullptr) const;
 };
-
-// Reads section `front:` (sub-sections `orb:` and `hierarchical_mode:`).
-void ReadOptions(ConfigSection& s, OrbExtractorOptions* o);
-void ReadOptions(ConfigSection& s, FrontOptions* o);
 
 }  // namespace rumi

@@ -2,25 +2,6 @@
 
 namespace rumi {
 
-bool HierarchicalOptions::Check(std::string* why) const {
-  auto fail = [&](const char* m) { if (why) *why = m; return false; };
-  if (!(eta >= 0)) return fail("eta must be >= 0");
-  if (lambda < 1) return fail("lambda must be >= 1");
-  if (stall_threshold < 1 || stall_threshold > lambda) return fail("stall_threshold must be in [1, lambda]");
-  if (sparse_frames < 1) return fail("sparse_frames must be >= 1");
-  if (resume_frames < 1) return fail("resume_frames must be >= 1");
-  return true;
-}
-
-void ReadOptions(ConfigSection& s, HierarchicalOptions* o) {
-  s.ReadInRange("eta", &o->eta, 0.0, 1e4);
-  s.ReadInRange("lambda", &o->lambda, 1, 100000);
-  s.ReadInRange("stall_threshold", &o->stall_threshold, 1, 100000);
-  s.ReadInRange("sparse_frames", &o->sparse_frames, 1, 100000);
-  s.ReadInRange("resume_frames", &o->resume_frames, 1, 100000);
-  CheckOptions(*o, s, "hierarchical");
-}
-
 const char* ToString(MappingGrain g) { return g == MappingGrain::kFine ? "fine" : "coarse"; }
 
 HierarchicalState::HierarchicalState(const HierarchicalOptions& o) : o_(o) {}

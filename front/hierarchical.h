@@ -9,7 +9,7 @@
 #include <deque>
 #include <string>
 
-#include "common/config.h"
+#include "common/option_spec.h"
 #include "common/timestamp.h"
 
 namespace rumi {
@@ -20,9 +20,9 @@ struct HierarchicalOptions {
   int stall_threshold = 25; // C_t >= this (submap unchanged) -> coarse
   int sparse_frames = 3;    // consecutive frames with n_t < eta -> coarse
   int resume_frames = 5;    // consecutive dense frames to go back to fine
+  static const OptionSpec<HierarchicalOptions>& Spec();  // front.hierarchical_mode (front_options.cc)
   bool Check(std::string* why = nullptr) const;
 };
-void ReadOptions(ConfigSection& s, HierarchicalOptions* o);
 
 enum class MappingGrain { kFine = 0, kCoarse = 1 };
 const char* ToString(MappingGrain g);

@@ -4,37 +4,27 @@
 
 namespace rumi {
 
-bool SamplerOptions::Check(std::string* why) const {
-  auto fail = [&](const char* m) {
-    if (why) *why = m;
-    return false;
-  };
-  if (inter < 1) return fail("inter must be >= 1");
-  if (len < 0) return fail("len must be >= 0");
-  if (th_s3 < 0) return fail("th_s3 must be >= 0");
-  if (max_s2 < 2) return fail("max_s2 must be >= 2");
-  if (startup_frames < 0) return fail("startup_frames must be >= 0");
-  if (pre_loss < 0) return fail("pre_loss must be >= 0");
-  return true;
+const OptionSpec<SamplerOptions>& SamplerOptions::Spec() {
+  using O = SamplerOptions;
+  static const auto* spec = [] {
+    auto* s = new OptionSpec<O>("sampler");
+    s->Number("inter", &O::inter, AtLeast(1), AtMost(10000), "sparse stride (frames), S1 and S3");
+    s->Number("len", &O::len, AtLeast(0), AtMost(10000), "S1 samples kept before a loss");
+    s->Number("th_s3", &O::th_s3, AtLeast(0), AtMost(100000),
+              "S3 ends when the front submap holds more than this many frames");
+    s->Enum("th_s3_unit", &O::th_s3_unit, {{"keyframes", S3Unit::kKeyframes}, {"frames", S3Unit::kFrames}},
+            "what th_s3 counts");
+    s->Number("max_s2", &O::max_s2, AtLeast(2), AtMost(100000), "cap on S2 samples per window (then thinned)");
+    s->Number("startup_frames", &O::startup_frames, AtLeast(0), AtMost(1000000),
+              "a first map that took more frames than this ships them to the back; 0: never");
+    s->Number("pre_loss", &O::pre_loss, AtLeast(0), AtMost(10000), "tracked frames before a loss added to the window");
+    s->Flag("clone_images", &O::clone_images, "copy sampled images (false: shallow references)");
+    return s;
+  }();
+  return *spec;
 }
 
-void ReadOptions(ConfigSection& s, SamplerOptions* o) {
-  s.ReadInRange("inter", &o->inter, 1, 10000);
-  s.ReadInRange("len", &o->len, 0, 10000);
-  s.ReadInRange("th_s3", &o->th_s3, 0, 100000);
-  std::string unit;
-  if (s.Read("th_s3_unit", &unit)) {
-    if (unit == "keyframes") o->th_s3_unit = S3Unit::kKeyframes;
-    else if (unit == "frames") o->th_s3_unit = S3Unit::kFrames;
-    else s.Fail("th_s3_unit", "must be 'keyframes' or 'frames', not '" + unit + "'");
-  }
-  s.ReadInRange("max_s2", &o->max_s2, 2, 100000);
-  s.ReadInRange("startup_frames", &o->startup_frames, 0, 1000000);
-  s.ReadInRange("pre_loss", &o->pre_loss, 0, 10000);
-  s.Read("clone_images", &o->clone_images);
-  std::string why;
-  if (!o->Check(&why)) s.Fail("inter", why);
-}
+bool SamplerOptions::Check(std::string* why) const { return Spec().Check(*this, why); }
 
 const char* ToString(Sampler::Phase p) {
   switch (p) {

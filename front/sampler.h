@@ -54,7 +54,7 @@
 #include <string>
 #include <vector>
 
-#include "common/config.h"
+#include "common/option_spec.h"
 #include "common/window.h"
 
 namespace rumi {
@@ -76,11 +76,11 @@ struct SamplerOptions {
   // 0.5 s first submap (generated `weak` seed 3). 0: off.
   int pre_loss = 4;
   bool clone_images = true;  // false: keep shallow refs (frame source must not reuse buffers)
+  static const OptionSpec<SamplerOptions>& Spec();  // section `sampler:`
   bool Check(std::string* why = nullptr) const;
 };
 // Keys: inter, len, th_s3, th_s3_unit (keyframes | frames), max_s2, startup_frames,
 // pre_loss, clone_images.
-void ReadOptions(ConfigSection& s, SamplerOptions* o);
 
 struct SamplerFrame {
   Timestamp timestamp = 0;

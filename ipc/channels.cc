@@ -10,45 +10,40 @@
 
 namespace rumi {
 
-bool IpcOptions::Check(std::string* why) const {
-  auto fail = [&](const std::string& m) {
-    if (why) *why = m;
-    return false;
-  };
-  if (instance.empty() || instance.size() > 32) return fail("instance id must have 1..32 characters");
-  for (char c : instance) {
-    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) {
-      return fail("instance id '" + instance + "' may only hold letters, digits, '_' and '-'");
-    }
+std::string InstanceIdProblem(const std::string& id) {
+  if (id.empty() || id.size() > 32) return "instance id must have 1..32 characters";
+  for (char c : id) {
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-'))
+      return "instance id '" + id + "' may only hold letters, digits, '_' and '-'";
   }
-  if (window_slots < 1 || window_slots > 64) return fail("window_slots must be in [1, 64]");
-  if (submap_slots < 1 || submap_slots > 1024) return fail("submap_slots must be in [1, 1024]");
-  constexpr int64_t kMin = 4096, kMax = 1ll << 30;
-  if (window_slot_bytes < kMin || window_slot_bytes > kMax) return fail("window_slot_bytes must be in [4 KiB, 1 GiB]");
-  if (submap_slot_bytes < kMin || submap_slot_bytes > kMax) return fail("submap_slot_bytes must be in [4 KiB, 1 GiB]");
-  OverflowPolicy p;
-  if (!ParseOverflowPolicy(overflow_policy, &p)) {
-    return fail("overflow_policy '" + overflow_policy + "' is neither drop_newest nor drop_oldest");
-  }
-  return true;
+  return "";
 }
+
+const OptionSpec<IpcOptions>& IpcOptions::Spec() {
+  using O = IpcOptions;
+  static const auto* spec = [] {
+    auto* s = new OptionSpec<O>("ipc");
+    s->Text("instance", &O::instance, "segments are rumi_<instance>_<channel>; the command line's --instance wins",
+            "[A-Za-z0-9_-]{1,32}", InstanceIdProblem);
+    s->Number("window_slots", &O::window_slots, AtLeast(1), AtMost(64), "windows the front -> back ring holds");
+    s->Number<int64_t>("window_slot_bytes", &O::window_slot_bytes, AtLeast<int64_t>(4096), AtMost<int64_t>(1ll << 30),
+                       "bytes of one window slot (a whole window)");
+    s->Number("submap_slots", &O::submap_slots, AtLeast(1), AtMost(1024), "submaps a submap ring holds");
+    s->Number<int64_t>("submap_slot_bytes", &O::submap_slot_bytes, AtLeast<int64_t>(4096), AtMost<int64_t>(1ll << 30),
+                       "bytes of one submap slot");
+    s->Choice("overflow_policy", &O::overflow_policy, {"drop_newest", "drop_oldest"},
+              "what a full ring drops");
+    return s;
+  }();
+  return *spec;
+}
+
+bool IpcOptions::Check(std::string* why) const { return Spec().Check(*this, why); }
 
 OverflowPolicy IpcOptions::policy() const {
   OverflowPolicy p = OverflowPolicy::kDropNewest;
   ParseOverflowPolicy(overflow_policy, &p);
   return p;
-}
-
-void ReadOptions(ConfigSection& s, IpcOptions* o) {
-  s.Read("instance", &o->instance);
-  s.ReadInRange("window_slots", &o->window_slots, 1, 64);
-  s.ReadInRange<int64_t>("window_slot_bytes", &o->window_slot_bytes, 4096, 1ll << 30);
-  s.ReadInRange("submap_slots", &o->submap_slots, 1, 1024);
-  s.ReadInRange<int64_t>("submap_slot_bytes", &o->submap_slot_bytes, 4096, 1ll << 30);
-  s.Read("overflow_policy", &o->overflow_policy);
-  std::string why;
-  OverflowPolicy p;
-  if (!o->Check(&why)) s.Fail(ParseOverflowPolicy(o->overflow_policy, &p) ? "instance" : "overflow_policy", why);
 }
 
 const char* SubmapChannel(SubmapSource source) {

@@ -7,7 +7,7 @@
 #include <memory>
 #include <string>
 
-#include "common/config.h"
+#include "common/option_spec.h"
 #include "common/submap.h"
 #include "common/window.h"
 #include "ipc/shm_ring.h"
@@ -23,12 +23,12 @@ struct IpcOptions {
   int submap_slots = 4;
   int64_t submap_slot_bytes = 96ll << 20;  // a 200-keyframe ORB submap encodes to ~20 MB
   std::string overflow_policy = "drop_newest";  // or "drop_oldest"
+  static const OptionSpec<IpcOptions>& Spec();  // section `ipc:`
   bool Check(std::string* why = nullptr) const;
   OverflowPolicy policy() const;
 };
-// Reads keys instance, window_slots, window_slot_bytes, submap_slots,
-// submap_slot_bytes, overflow_policy; throws ConfigError on bad values.
-void ReadOptions(ConfigSection& s, IpcOptions* o);
+// "" when id is a usable instance id, else why not.
+std::string InstanceIdProblem(const std::string& id);
 
 constexpr const char* kWindowChannel = "windows";
 constexpr const char* kFrontSubmapChannel = "front_submaps";

@@ -1,102 +1,79 @@
 #include "manager/manager_options.h"
 
 namespace rumi {
-namespace {
-bool Fail(std::string* why, const std::string& msg) {
-  if (why) *why = msg;
-  return false;
-}
-}  // namespace
 
-bool ManagerOptions::Check(std::string* why) const {
-  if (pairing_max_dt_ns <= 0) return Fail(why, "pairing_max_dt_ns must be > 0");
-  if (search_n < 0) return Fail(why, "search_n must be >= 0");
-  if (!(match_radius_px > 0)) return Fail(why, "match_radius_px must be > 0");
-  if (pair_neighbour_keyframes < 1) return Fail(why, "pair_neighbour_keyframes must be >= 1");
-  if (!(pair_ratio > 0 && pair_ratio <= 1)) return Fail(why, "pair_ratio must be in (0, 1]");
-  if (min_keyframe_pairs < 1) return Fail(why, "min_keyframe_pairs must be >= 1");
-  if (min_common_points < 3) return Fail(why, "min_common_points must be >= 3");
-  if (!(min_inlier_ratio >= 0 && min_inlier_ratio < 1)) return Fail(why, "min_inlier_ratio must be in [0, 1)");
-  if (ransac_iterations < 1) return Fail(why, "ransac_iterations must be >= 1");
-  if (!(ransac_threshold_ratio > 0)) return Fail(why, "ransac_threshold_ratio must be > 0");
-  if (robust_loss != "huber" && robust_loss != "cauchy")
-    return Fail(why, "robust_loss must be 'huber' or 'cauchy' (got '" + robust_loss + "')");
-  if (!(robust_loss_scale_px > 0)) return Fail(why, "robust_loss_scale_px must be > 0");
-  if (!(outlier_threshold_px > 0)) return Fail(why, "outlier_threshold_px must be > 0");
-  if (refine_max_iterations < 1) return Fail(why, "refine_max_iterations must be >= 1");
-  if (refine_max_obs_per_point < 1) return Fail(why, "refine_max_obs_per_point must be >= 1");
-  if (welding_max_keyframes < 1) return Fail(why, "welding_max_keyframes must be >= 1");
-  if (welding_min_covisible < 1) return Fail(why, "welding_min_covisible must be >= 1");
-  if (ba_max_iterations < 1) return Fail(why, "ba_max_iterations must be >= 1");
-  if (!(culling_redundant_ratio > 0 && culling_redundant_ratio <= 1))
-    return Fail(why, "culling_redundant_ratio must be in (0, 1]");
-  if (culling_min_observers < 1) return Fail(why, "culling_min_observers must be >= 1");
-  if (culling_octave_tolerance < 0 || culling_octave_tolerance > 31)
-    return Fail(why, "culling_octave_tolerance must be in [0, 31]");
-  if (!(front_search_px >= 0 && front_search_px <= 50)) return Fail(why, "front_search_px must be in [0, 50]");
-  if (front_search_max_hamming < 0 || front_search_max_hamming > 256)
-    return Fail(why, "front_search_max_hamming must be in [0, 256]");
-  if (place_max_hamming < 0 || place_max_hamming > 256) return Fail(why, "place_max_hamming must be in [0, 256]");
-  if (!(place_ratio > 0 && place_ratio <= 1)) return Fail(why, "place_ratio must be in (0, 1]");
-  if (place_ransac_iterations < 1) return Fail(why, "place_ransac_iterations must be >= 1");
-  if (place_min_inliers < 3) return Fail(why, "place_min_inliers must be >= 3");
-  if (!(place_min_inlier_ratio >= 0 && place_min_inlier_ratio < 1))
-    return Fail(why, "place_min_inlier_ratio must be in [0, 1)");
-  if (!(place_max_rmse_px > 0)) return Fail(why, "place_max_rmse_px must be > 0");
-  if (!(odometry_window_s > 0)) return Fail(why, "odometry_window_s must be > 0");
-  if (odometry_min_frames < 3) return Fail(why, "odometry_min_frames must be >= 3");
-  if (!(odometry_min_path_m > 0)) return Fail(why, "odometry_min_path_m must be > 0");
-  if (!(odometry_max_residual > 0 && odometry_max_residual <= 1))
-    return Fail(why, "odometry_max_residual must be in (0, 1]");
-  if (!(odometry_max_rotation_deg > 0 && odometry_max_rotation_deg <= 180))
-    return Fail(why, "odometry_max_rotation_deg must be in (0, 180]");
-  if (!(odometry_max_gap_s >= 0)) return Fail(why, "odometry_max_gap_s must be >= 0");
-  return true;
+const OptionSpec<ManagerOptions>& ManagerOptions::Spec() {
+  using O = ManagerOptions;
+  static const auto* spec = [] {
+    auto* s = new OptionSpec<O>("manager");
+    s->Number<int64_t>("pairing_max_dt_ns", &O::pairing_max_dt_ns, AtLeast<int64_t>(1), AtMost<int64_t>(1000000000),
+                       "back and front keyframes pair when their timestamps differ by less (ns)");
+    s->Number("search_n", &O::search_n, AtLeast(0), AtMost(100000),
+              "F^search: first and last n keyframes of each back submap; 0: all");
+    s->Number("match_radius_px", &O::match_radius_px, Above(0.0), AtMost(100.0),
+              "M_com: keypoints of paired keyframes within this radius (undistorted px)");
+    s->Flag("pair_tracked_frames", &O::pair_tracked_frames, "also pair back keyframes with tracked front frames");
+    s->Number("pair_neighbour_keyframes", &O::pair_neighbour_keyframes, AtLeast(1), AtMost(1000),
+              "front keyframes before/after a tracked frame whose points are projected");
+    s->Number("pair_ratio", &O::pair_ratio, Above(0.0), AtMost(1.0), "nearest / runner-up projection distance");
+    s->Number("min_keyframe_pairs", &O::min_keyframe_pairs, AtLeast(1), AtMost(100000), "keyframe pairs of a merge");
+    s->Number("min_common_points", &O::min_common_points, AtLeast(3), AtMost(1000000), "common points of a merge");
+    s->Number("min_inlier_ratio", &O::min_inlier_ratio, AtLeast(0.0), Below(1.0),
+              "a merge needs an inlier ratio strictly above this");
+    s->Number("ransac_iterations", &O::ransac_iterations, AtLeast(1), AtMost(1000000), "RANSAC Sim(3) samples");
+    s->Number("ransac_threshold_ratio", &O::ransac_threshold_ratio, Above(0.0), AtMost(10.0),
+              "inlier distance / median scene radius");
+    s->Number<uint32_t>("ransac_seed", &O::ransac_seed, Unbounded<uint32_t>(), Unbounded<uint32_t>(), "RANSAC seed");
+    s->Choice("robust_loss", &O::robust_loss, {"huber", "cauchy"}, "robust loss of refinement and welding BA");
+    s->Number("robust_loss_scale_px", &O::robust_loss_scale_px, Above(0.0), AtMost(1000.0), "robust loss scale");
+    s->Number("outlier_threshold_px", &O::outlier_threshold_px, Above(0.0), AtMost(1000.0),
+              "residuals above this are dropped after a first solve");
+    s->Number("refine_max_iterations", &O::refine_max_iterations, AtLeast(1), AtMost(10000), "Sim(3) refinement");
+    s->Number("refine_max_obs_per_point", &O::refine_max_obs_per_point, AtLeast(1), AtMost(100000),
+              "Formula 8 observations per point and side");
+    s->Number("welding_min_covisible", &O::welding_min_covisible, AtLeast(1), AtMost(100000),
+              "welding window: shared map points with a matched keyframe");
+    s->Number("welding_max_keyframes", &O::welding_max_keyframes, AtLeast(1), AtMost(100000), "welding window size");
+    s->Number("ba_max_iterations", &O::ba_max_iterations, AtLeast(1), AtMost(10000), "welding BA iterations");
+    s->Flag("welding_ba", &O::welding_ba, "run the welding-window BA after a merge");
+    s->Number("culling_redundant_ratio", &O::culling_redundant_ratio, Above(0.0), AtMost(1.0),
+              "post-culling: share of a keyframe's points seen by enough others");
+    s->Number("culling_min_observers", &O::culling_min_observers, AtLeast(1), AtMost(1000),
+              "post-culling: other keyframes that must see a point");
+    s->Number("culling_octave_tolerance", &O::culling_octave_tolerance, AtLeast(0), AtMost(31),
+              "post-culling: coarser levels that still count");
+    s->Number("front_search_px", &O::front_search_px, AtLeast(0.0), AtMost(50.0),
+              "front points searched in back keyframes within this radius; 0: off");
+    s->Number("front_search_max_hamming", &O::front_search_max_hamming, AtLeast(0), AtMost(256),
+              "front point search: descriptor distance");
+    s->Flag("place_merge", &O::place_merge, "join front submaps of one place by descriptors");
+    s->Number("place_max_hamming", &O::place_max_hamming, AtLeast(0), AtMost(256), "place merge: descriptor distance");
+    s->Number("place_ratio", &O::place_ratio, Above(0.0), AtMost(1.0), "place merge: nearest / runner-up");
+    s->Number("place_ransac_iterations", &O::place_ransac_iterations, AtLeast(1), AtMost(1000000),
+              "place merge: RANSAC samples");
+    s->Number("place_min_inliers", &O::place_min_inliers, AtLeast(3), AtMost(1000000), "place merge: inliers");
+    s->Number("place_min_inlier_ratio", &O::place_min_inlier_ratio, AtLeast(0.0), Below(1.0),
+              "place merge: inlier ratio");
+    s->Number("place_max_rmse_px", &O::place_max_rmse_px, Above(0.0), AtMost(1000.0),
+              "place merge: refined reprojection RMSE");
+    s->Flag("odometry_merge", &O::odometry_merge, "join consecutive front submaps through the pose source");
+    s->Number("odometry_window_s", &O::odometry_window_s, Above(0.0), AtMost(3600.0),
+              "odometry merge: fit window around the gap, s");
+    s->Number("odometry_min_frames", &O::odometry_min_frames, AtLeast(3), AtMost(1000000),
+              "odometry merge: tracked frames per side");
+    s->Number("odometry_min_path_m", &O::odometry_min_path_m, Above(0.0), AtMost(1e6),
+              "odometry merge: path length that makes the scale observable");
+    s->Number("odometry_max_residual", &O::odometry_max_residual, Above(0.0), AtMost(1.0),
+              "odometry merge: position residual / spread");
+    s->Number("odometry_max_rotation_deg", &O::odometry_max_rotation_deg, Above(0.0), AtMost(180.0),
+              "odometry merge: rotation residual");
+    s->Number("odometry_max_gap_s", &O::odometry_max_gap_s, AtLeast(0.0), AtMost(1e6),
+              "odometry merge: longest gap joined, s");
+    return s;
+  }();
+  return *spec;
 }
 
-void ReadOptions(ConfigSection& s, ManagerOptions* o) {
-  s.ReadInRange<int64_t>("pairing_max_dt_ns", &o->pairing_max_dt_ns, 1, 1000000000);
-  s.ReadInRange("search_n", &o->search_n, 0, 100000);
-  s.ReadInRange("match_radius_px", &o->match_radius_px, 1e-3, 100.0);
-  s.Read("pair_tracked_frames", &o->pair_tracked_frames);
-  s.ReadInRange("pair_neighbour_keyframes", &o->pair_neighbour_keyframes, 1, 1000);
-  s.ReadInRange("pair_ratio", &o->pair_ratio, 1e-3, 1.0);
-  s.ReadInRange("min_keyframe_pairs", &o->min_keyframe_pairs, 1, 100000);
-  s.ReadInRange("min_common_points", &o->min_common_points, 3, 1000000);
-  s.ReadInRange("min_inlier_ratio", &o->min_inlier_ratio, 0.0, 0.99);
-  s.ReadInRange("ransac_iterations", &o->ransac_iterations, 1, 1000000);
-  s.ReadInRange("ransac_threshold_ratio", &o->ransac_threshold_ratio, 1e-6, 10.0);
-  s.ReadInRange<uint32_t>("ransac_seed", &o->ransac_seed, 0u, 0xffffffffu);
-  s.Read("robust_loss", &o->robust_loss);
-  s.ReadInRange("robust_loss_scale_px", &o->robust_loss_scale_px, 1e-3, 1000.0);
-  s.ReadInRange("outlier_threshold_px", &o->outlier_threshold_px, 1e-3, 1000.0);
-  s.ReadInRange("refine_max_iterations", &o->refine_max_iterations, 1, 10000);
-  s.ReadInRange("refine_max_obs_per_point", &o->refine_max_obs_per_point, 1, 100000);
-  s.ReadInRange("welding_min_covisible", &o->welding_min_covisible, 1, 100000);
-  s.ReadInRange("welding_max_keyframes", &o->welding_max_keyframes, 1, 100000);
-  s.ReadInRange("ba_max_iterations", &o->ba_max_iterations, 1, 10000);
-  s.Read("welding_ba", &o->welding_ba);
-  s.ReadInRange("culling_redundant_ratio", &o->culling_redundant_ratio, 1e-3, 1.0);
-  s.ReadInRange("culling_min_observers", &o->culling_min_observers, 1, 1000);
-  s.ReadInRange("culling_octave_tolerance", &o->culling_octave_tolerance, 0, 31);
-  s.ReadInRange("front_search_px", &o->front_search_px, 0.0, 50.0);
-  s.ReadInRange("front_search_max_hamming", &o->front_search_max_hamming, 0, 256);
-  s.Read("place_merge", &o->place_merge);
-  s.ReadInRange("place_max_hamming", &o->place_max_hamming, 0, 256);
-  s.ReadInRange("place_ratio", &o->place_ratio, 1e-3, 1.0);
-  s.ReadInRange("place_ransac_iterations", &o->place_ransac_iterations, 1, 1000000);
-  s.ReadInRange("place_min_inliers", &o->place_min_inliers, 3, 1000000);
-  s.ReadInRange("place_min_inlier_ratio", &o->place_min_inlier_ratio, 0.0, 0.99);
-  s.ReadInRange("place_max_rmse_px", &o->place_max_rmse_px, 1e-3, 1000.0);
-  s.Read("odometry_merge", &o->odometry_merge);
-  s.ReadInRange("odometry_window_s", &o->odometry_window_s, 0.1, 3600.0);
-  s.ReadInRange("odometry_min_frames", &o->odometry_min_frames, 3, 1000000);
-  s.ReadInRange("odometry_min_path_m", &o->odometry_min_path_m, 1e-3, 1e6);
-  s.ReadInRange("odometry_max_residual", &o->odometry_max_residual, 1e-3, 1.0);
-  s.ReadInRange("odometry_max_rotation_deg", &o->odometry_max_rotation_deg, 0.01, 180.0);
-  s.ReadInRange("odometry_max_gap_s", &o->odometry_max_gap_s, 0.0, 1e6);
-  std::string why;
-  if (!o->Check(&why)) throw ConfigError(s.file() + ": section 'manager': " + why);
-}
+bool ManagerOptions::Check(std::string* why) const { return Spec().Check(*this, why); }
 
 }  // namespace rumi

@@ -3,7 +3,7 @@
 #include <cstdint>
 #include <string>
 
-#include "common/config.h"
+#include "common/option_spec.h"
 
 namespace rumi {
 
@@ -97,10 +97,9 @@ struct ManagerOptions {
   double odometry_max_rotation_deg = 3.0;
   double odometry_max_gap_s = 2.0;
 
+  // The keys of the `manager:` section (ReadOptions(root.Child("manager"), &o)).
+  static const OptionSpec<ManagerOptions>& Spec();
   bool Check(std::string* why = nullptr) const;
 };
-
-// Reads the keys of the `manager:` section (pass root.Child("manager")).
-void ReadOptions(ConfigSection& s, ManagerOptions* o);
 
 }  // namespace rumi

@@ -49,7 +49,7 @@ TEST(ManagerOptions, RejectsBadValues) {
     bad("robust_loss: l2");
     FAIL();
   } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("test.yaml: section 'manager': robust_loss"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("test.yaml: key 'manager.robust_loss'"), std::string::npos) << e.what();
   }
   EXPECT_THROW(bad("min_inlier_ratio: 1.5"), ConfigError);
   EXPECT_THROW(bad("search_n: many"), ConfigError);
@@ -71,6 +71,41 @@ TEST(ManagerOptions, RejectsBadValues) {
   std::string why;
   EXPECT_FALSE(o.Check(&why));
   EXPECT_NE(why.find("culling_min_observers"), std::string::npos);
+}
+
+// The YAML reader and Check() come from one declaration: a value the reader
+// refuses is one Check() refuses, with the same range (they used to differ,
+// e.g. match_radius_px 1e-4 passed Check but not the reader, min_inlier_ratio
+// 0.995 the reverse).
+TEST(ManagerOptions, ReaderAndCheckAgree) {
+  for (const std::string yaml : {"match_radius_px: 0.0001", "match_radius_px: 0", "min_inlier_ratio: 0.995",
+                                 "min_inlier_ratio: 1", "pair_ratio: 1.0", "pair_ratio: 0.0001",
+                                 "front_search_px: 50", "front_search_px: 50.5", "culling_redundant_ratio: 1"}) {
+    SCOPED_TRACE(yaml);
+    const auto key = yaml.substr(0, yaml.find(':'));
+    const double v = std::stod(yaml.substr(yaml.find(':') + 1));
+    ManagerOptions set;
+    if (key == "match_radius_px") set.match_radius_px = v;
+    if (key == "min_inlier_ratio") set.min_inlier_ratio = v;
+    if (key == "pair_ratio") set.pair_ratio = v;
+    if (key == "front_search_px") set.front_search_px = v;
+    if (key == "culling_redundant_ratio") set.culling_redundant_ratio = v;
+    std::string why;
+    const bool check_ok = set.Check(&why);
+    bool read_ok = true;
+    std::string error;
+    try {
+      auto root = LoadConfigString("manager:\n  " + yaml + "\n", "t.yaml");
+      auto s = root.Child("manager");
+      ManagerOptions o;
+      ReadOptions(s, &o);
+    } catch (const ConfigError& e) {
+      read_ok = false;
+      error = e.what();
+    }
+    EXPECT_EQ(check_ok, read_ok) << why << " | " << error;
+    if (!check_ok) EXPECT_NE(error.find(why.substr(why.find(" is outside"))), std::string::npos) << error;
+  }
 }
 
 }  // namespace
