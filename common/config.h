@@ -3,9 +3,8 @@
 // Finish() reports keys nobody read (typos), so a program refuses to start
 // on a config it does not fully understand. Errors name file, key and reason.
 //
-// Pattern for a configurable part:
-//   struct FooOptions { int n = 3; bool Check(std::string* why) const; };
-//   void ReadOptions(ConfigSection& s, FooOptions* o) { s.Read("n", &o->n); }
+// A configurable part declares its keys once in FooOptions::Spec()
+// (common/option_spec.h); ReadOptions(section, &foo) reads them.
 #include <yaml-cpp/yaml.h>
 
 #include <memory>

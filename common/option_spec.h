@@ -209,6 +209,16 @@ class OptionSpec {
     return Add({key, "", "", ""}, read, check, nullptr);
   }
 
+  // A member struct whose keys sit in this same section (no `key:` level).
+  template <typename Sub>
+  OptionSpec& Inline(Sub O::*field, const OptionSpec<Sub>& sub) {
+    const OptionSpec<Sub>* sp = &sub;
+    auto read = [field, sp](ConfigSection& s, O* o) { sp->Read(s, &(o->*field)); };
+    auto check = [field, sp](const O& o, std::string* why) { return sp->Check(o.*field, why); };
+    for (const OptionInfo& info : sub.Describe(Sub())) nested_.push_back(info);
+    return Add({"(" + sub.section() + ")", "", "", ""}, read, check, nullptr);
+  }
+
   // Anything else (a pose, a list): its own reader and checker.
   OptionSpec& Custom(OptionInfo info, ReadFn read, CheckFn check, std::function<std::string(const O&)> show) {
     return Add(std::move(info), std::move(read), std::move(check), std::move(show));

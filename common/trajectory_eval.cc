@@ -102,13 +102,18 @@ bool LineAlign(const std::vector<Eigen::Vector3d>& p_est, const std::vector<Eige
 
 }  // namespace
 
-bool AssociationOptions::Check(std::string* why) const {
-  if (!(max_diff_s >= 0.0) || !std::isfinite(max_diff_s)) {
-    if (why) *why = "max_diff_s must be a finite value >= 0";
-    return false;
-  }
-  return true;
+const OptionSpec<AssociationOptions>& AssociationOptions::Spec() {
+  using O = AssociationOptions;
+  static const auto* spec = [] {
+    auto* s = new OptionSpec<O>("association");
+    s->Number("max_diff_s", &O::max_diff_s, AtLeast(0.0), AtMost(1e6), "|t_est - t_gt| of a pair, s");
+    s->Flag("one_to_one", &O::one_to_one, "a ground-truth pose pairs at most once");
+    return s;
+  }();
+  return *spec;
 }
+
+bool AssociationOptions::Check(std::string* why) const { return Spec().Check(*this, why); }
 
 std::vector<PosePair> AssociateByTimestamp(const Trajectory& est, const Trajectory& gt,
                                            const AssociationOptions& options) {
@@ -210,17 +215,21 @@ const char* ToString(Alignment alignment) {
   return "?";
 }
 
-bool AteOptions::Check(std::string* why) const { return association.Check(why); }
-
-void ReadOptions(ConfigSection& s, AteOptions* o) {
-  s.ReadInRange("max_diff_s", &o->association.max_diff_s, 0.0, 1e6);
-  s.Read("one_to_one", &o->association.one_to_one);
-  s.Read("match_by_index", &o->match_by_index);
-  std::string align = ToString(o->alignment);
-  if (s.Read("alignment", &align) && !ParseAlignment(align, &o->alignment)) {
-    s.Fail("alignment", "must be none, se3 or sim3 (got '" + align + "')");
-  }
+const OptionSpec<AteOptions>& AteOptions::Spec() {
+  using O = AteOptions;
+  static const auto* spec = [] {
+    auto* s = new OptionSpec<O>("ate");
+    s->Inline(&O::association, AssociationOptions::Spec());
+    s->Enum("alignment", &O::alignment,
+            {{"none", Alignment::kNone}, {"se3", Alignment::kSe3}, {"sim3", Alignment::kSim3}},
+            "alignment before the RMSE");
+    s->Flag("match_by_index", &O::match_by_index, "pair by index, not by time (KITTI)");
+    return s;
+  }();
+  return *spec;
 }
+
+bool AteOptions::Check(std::string* why) const { return Spec().Check(*this, why); }
 
 AteResult ComputeAte(const Trajectory& est, const Trajectory& gt, const AteOptions& options) {
   std::string why;
@@ -284,22 +293,20 @@ AteResult ComputeAte(const Trajectory& est, const Trajectory& gt, const AteOptio
   return r;
 }
 
-bool TrackingRateOptions::Check(std::string* why) const {
-  if (!(max_gap_factor >= 1.0) || !std::isfinite(max_gap_factor)) {
-    if (why) *why = "max_gap_factor must be >= 1";
-    return false;
-  }
-  if (!(match_tolerance_s >= 0.0) || !std::isfinite(match_tolerance_s)) {
-    if (why) *why = "match_tolerance_s must be >= 0";
-    return false;
-  }
-  return true;
+const OptionSpec<TrackingRateOptions>& TrackingRateOptions::Spec() {
+  using O = TrackingRateOptions;
+  static const auto* spec = [] {
+    auto* s = new OptionSpec<O>("tracking_rate");
+    s->Number("max_gap_factor", &O::max_gap_factor, AtLeast(1.0), AtMost(1e6),
+              "a gap longer than this x the median frame interval is not covered");
+    s->Number("match_tolerance_s", &O::match_tolerance_s, AtLeast(0.0), AtMost(1e6),
+              "pose-to-frame tolerance, s; 0: half the median frame interval");
+    return s;
+  }();
+  return *spec;
 }
 
-void ReadOptions(ConfigSection& s, TrackingRateOptions* o) {
-  s.ReadInRange("max_gap_factor", &o->max_gap_factor, 1.0, 1e6);
-  s.ReadInRange("match_tolerance_s", &o->match_tolerance_s, 0.0, 1e6);
-}
+bool TrackingRateOptions::Check(std::string* why) const { return Spec().Check(*this, why); }
 
 TrackingRate ComputeTrackingRate(const std::vector<Timestamp>& frames,
                                  const std::vector<Timestamp>& tracked,

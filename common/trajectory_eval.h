@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "common/config.h"
+#include "common/option_spec.h"
 #include "common/geometry.h"
 #include "common/trajectory.h"
 
@@ -20,6 +20,7 @@ struct AssociationOptions {
   // poses closer than 2 * max_diff. one_to_one keeps only the closer of such
   // pairs (earlier on a tie); otherwise identical to evo.
   bool one_to_one = true;
+  static const OptionSpec<AssociationOptions>& Spec();
   bool Check(std::string* why = nullptr) const;
 };
 
@@ -53,10 +54,10 @@ struct AteOptions {
   AssociationOptions association;
   Alignment alignment = Alignment::kSim3;  // design.md: ATE after Sim(3) Umeyama
   bool match_by_index = false;             // KITTI: ignore timestamps, pair by index
+  // Keys: max_diff_s, one_to_one, alignment (none|se3|sim3), match_by_index.
+  static const OptionSpec<AteOptions>& Spec();
   bool Check(std::string* why = nullptr) const;
 };
-// Keys: max_diff_s, one_to_one, alignment (none|se3|sim3), match_by_index.
-void ReadOptions(ConfigSection& s, AteOptions* o);
 
 struct AteResult {
   size_t num_estimate = 0;
@@ -99,11 +100,9 @@ AteResult ComputeAte(const Trajectory& est, const Trajectory& gt, const AteOptio
 struct TrackingRateOptions {
   double max_gap_factor = 3.0;
   double match_tolerance_s = 0.0;  // 0: half the median frame interval
+  static const OptionSpec<TrackingRateOptions>& Spec();  // keys max_gap_factor, match_tolerance_s
   bool Check(std::string* why = nullptr) const;
 };
-
-// Keys: max_gap_factor, match_tolerance_s.
-void ReadOptions(ConfigSection& s, TrackingRateOptions* o);
 
 struct TrackingRate {
   size_t num_frames = 0;

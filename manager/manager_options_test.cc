@@ -104,7 +104,9 @@ TEST(ManagerOptions, ReaderAndCheckAgree) {
       error = e.what();
     }
     EXPECT_EQ(check_ok, read_ok) << why << " | " << error;
-    if (!check_ok) EXPECT_NE(error.find(why.substr(why.find(" is outside"))), std::string::npos) << error;
+    if (!check_ok) {
+      EXPECT_NE(error.find(why.substr(why.find(" is outside"))), std::string::npos) << error;
+    }
   }
 }
 

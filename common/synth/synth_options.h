@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "common/config.h"
+#include "common/option_spec.h"
 
 namespace rumi {
 
@@ -54,6 +54,7 @@ struct SynthOptions {
   double odometry_rotation_noise_deg = 0.1;   // per-axis sigma per frame (random walk)
   double weak_amplitude = 0.06;       // weak / corridor turn: albedo amplitude left
 
+  static const OptionSpec<SynthOptions>& Spec();  // a `synth:` style section, keys as the fields
   bool Check(std::string* why = nullptr) const;
 
   // Defaults resolved (-1 replaced); call after Check().
@@ -61,7 +62,5 @@ struct SynthOptions {
   int HardLength() const;
 };
 
-// Reads a `synth:` style section (keys as the field names).
-void ReadOptions(ConfigSection& s, SynthOptions* o);
 
 }  // namespace rumi
