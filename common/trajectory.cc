@@ -13,6 +13,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include "common/atomic_file.h"
+
 namespace rumi {
 namespace {
 
@@ -137,13 +139,13 @@ std::ifstream OpenForRead(const std::string& path, const char* what) {
   return in;
 }
 
+// Atomically (common/atomic_file.h): a reader never sees half a trajectory.
 template <typename Format>
 void WriteFile(const std::string& path, const Trajectory& traj, Format format) {
-  std::ofstream out(path);
-  if (!out) throw std::runtime_error("cannot open '" + path + "' for writing");
+  std::ostringstream out;
   format(traj, out);
-  out.flush();
-  if (!out) throw std::runtime_error("write to '" + path + "' failed");
+  std::string why;
+  if (!WriteFileAtomically(path, out.str(), &why)) throw std::runtime_error(why);
 }
 
 }  // namespace

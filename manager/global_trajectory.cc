@@ -1,8 +1,6 @@
 #include "manager/global_trajectory.h"
 
 #include <algorithm>
-#include <cstdio>
-#include <fstream>
 
 #include "manager/submap_index.h"
 
@@ -45,26 +43,11 @@ std::vector<GlobalPose> ComputeGlobalTrajectory(const GlobalMap& map, int compon
   return out;
 }
 
-bool WriteTumTrajectory(const std::string& path, const std::vector<GlobalPose>& poses, std::string* why) {
-  std::ofstream f(path);
-  if (!f) {
-    if (why) *why = "cannot open '" + path + "' for writing";
-    return false;
-  }
-  char buf[256];
-  for (const GlobalPose& p : poses) {
-    const Eigen::Vector3d& t = p.T_wc.translation();
-    const Eigen::Quaterniond& q = p.T_wc.rotation();
-    std::snprintf(buf, sizeof(buf), " %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n", t.x(), t.y(), t.z(), q.x(), q.y(),
-                  q.z(), q.w());
-    f << FormatSeconds(p.timestamp) << buf;
-  }
-  f.flush();
-  if (!f) {
-    if (why) *why = "write to '" + path + "' failed";
-    return false;
-  }
-  return true;
+Trajectory ToTrajectory(const std::vector<GlobalPose>& poses) {
+  Trajectory t;
+  t.reserve(poses.size());
+  for (const GlobalPose& p : poses) t.push_back({p.timestamp, p.T_wc});
+  return t;
 }
 
 }  // namespace rumi

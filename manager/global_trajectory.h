@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "common/trajectory.h"
 #include "manager/global_map.h"
 
 namespace rumi {
@@ -23,7 +24,7 @@ struct GlobalPose {
 std::vector<GlobalPose> ComputeGlobalTrajectory(const GlobalMap& map, int component = -1,
                                                 int64_t max_dt_ns = 100000);
 
-// TUM: "t tx ty tz qx qy qz qw" with t in seconds (9 decimals, exact).
-bool WriteTumTrajectory(const std::string& path, const std::vector<GlobalPose>& poses, std::string* why);
+// The poses as a Trajectory, for the one TUM writer (common/trajectory.h).
+Trajectory ToTrajectory(const std::vector<GlobalPose>& poses);
 
 }  // namespace rumi

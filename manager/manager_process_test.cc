@@ -87,6 +87,7 @@ std::vector<Timestamp> TumTimes(const std::string& path) {
   std::ifstream in(path);
   std::string line;
   while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;  // the TUM writer's header
     Timestamp ns = 0;
     EXPECT_TRUE(ParseSecondsToNs(line.substr(0, line.find(' ')), &ns)) << line;
     t.push_back(ns);

@@ -13,6 +13,7 @@
 #include <thread>
 #include <unistd.h>
 
+#include "common/atomic_file.h"
 #include "common/timestamp.h"
 #include "manager/odometry_merge.h"
 #include "manager/global_trajectory.h"
@@ -22,24 +23,6 @@ namespace rumi {
 namespace fs = std::filesystem;
 
 namespace {
-
-// Writes via a temporary file and rename, so a reader never sees half a file.
-template <typename Write>
-bool WriteAtomically(const std::string& path, std::string* why, Write&& write) {
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  if (!write(tmp, why)) {
-    std::remove(tmp.c_str());
-    return false;
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    if (why) *why = "cannot rename " + tmp + " to " + path + ": " + ec.message();
-    std::remove(tmp.c_str());
-    return false;
-  }
-  return true;
-}
 
 nlohmann::json Sim3Json(const Sim3& S) {
   const auto& q = S.rotation();
@@ -274,8 +257,13 @@ bool ManagerService::Rebuild(std::string* why) {
 bool ManagerService::WriteTrajectories(std::string* why) {
   const std::vector<int> roots = map_.ComponentsBySize();
   const auto write = [&](const std::string& name, const std::vector<GlobalPose>& traj) {
-    return WriteAtomically((fs::path(options_.out_dir) / name).string(), why,
-                           [&](const std::string& tmp, std::string* w) { return WriteTumTrajectory(tmp, traj, w); });
+    try {
+      WriteTumTrajectory((fs::path(options_.out_dir) / name).string(), ToTrajectory(traj));
+    } catch (const std::exception& e) {
+      if (why) *why = e.what();
+      return false;
+    }
+    return true;
   };
   stats_.trajectory_frames = 0;
   if (roots.empty() && !write("merged.txt", {})) return false;
@@ -331,17 +319,7 @@ bool ManagerService::WriteStats(std::string* why) const {
   nlohmann::json reports = nlohmann::json::array();
   for (const auto& r : stats_.reports) reports.push_back(ReportJson(r));
   j["merge_reports"] = reports;
-  const std::string path = (fs::path(options_.out_dir) / "manager_stats.json").string();
-  return WriteAtomically(path, why, [&](const std::string& tmp, std::string* w) {
-    std::ofstream out(tmp);
-    out << j.dump(2) << "\n";
-    out.close();
-    if (!out) {
-      if (w) *w = "cannot write " + tmp;
-      return false;
-    }
-    return true;
-  });
+  return WriteFileAtomically((fs::path(options_.out_dir) / "manager_stats.json").string(), j.dump(2) + "\n", why);
 }
 
 bool ManagerService::WriteOutputs(std::string* why) {

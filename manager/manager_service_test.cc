@@ -45,6 +45,7 @@ std::vector<TumRow> ReadTum(const std::string& path) {
   std::ifstream in(path);
   std::string line;
   while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;  // the TUM writer's header
     std::istringstream ss(line);
     std::string t;
     double v[7];

@@ -1,14 +1,12 @@
 #include "manager/map_file.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 #include <iterator>
 
+#include "common/atomic_file.h"
 #include "ipc/byte_io.h"
 #include "ipc/submap_codec.h"
 
@@ -45,25 +43,6 @@ class Bytes {
 
 std::string Errno(const std::string& what, const std::string& path) {
   return what + " '" + path + "': " + std::strerror(errno);
-}
-
-bool WriteAll(int fd, const uint8_t* p, size_t n) {
-  while (n > 0) {
-    const ssize_t w = ::write(fd, p, n);
-    if (w < 0) {
-      if (errno == EINTR) continue;
-      return false;
-    }
-    p += w;
-    n -= size_t(w);
-  }
-  return true;
-}
-
-std::string DirName(const std::string& path) {
-  const size_t s = path.find_last_of('/');
-  if (s == std::string::npos) return ".";
-  return s == 0 ? "/" : path.substr(0, s);
 }
 
 }  // namespace
@@ -105,31 +84,7 @@ bool SaveGlobalMap(const GlobalMap& map, const std::string& path, std::string* w
   file.Put<uint64_t>(Checksum64(body.data().data(), body.data().size()));
   file.PutBytes(body.data().data(), body.data().size());
 
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) {
-    if (why) *why = Errno("cannot create", tmp);
-    return false;
-  }
-  if (!WriteAll(fd, file.data().data(), file.data().size()) || ::fsync(fd) != 0) {
-    if (why) *why = Errno("cannot write", tmp);
-    ::close(fd);
-    ::unlink(tmp.c_str());
-    return false;
-  }
-  ::close(fd);
-  if (::rename(tmp.c_str(), path.c_str()) != 0) {
-    if (why) *why = Errno("cannot rename onto", path);
-    ::unlink(tmp.c_str());
-    return false;
-  }
-  // The rename itself must reach the disk.
-  const int dfd = ::open(DirName(path).c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dfd >= 0) {
-    ::fsync(dfd);
-    ::close(dfd);
-  }
-  return true;
+  return WriteFileAtomically(path, file.data().data(), file.data().size(), why);
 }
 
 bool LoadGlobalMap(const std::string& path, GlobalMap* map, std::string* why,

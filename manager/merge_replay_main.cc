@@ -103,8 +103,10 @@ int Main(int argc, char** argv) {
   for (size_t i = 0; i < map.size(); ++i) components += map.Component(int(i)) == int(i);
   std::cout << fmt::format("submaps={} components={} largest_component_frames={}\n", map.size(), components,
                            traj.size());
-  if (!traj_path.empty() && !WriteTumTrajectory(traj_path, traj, &why)) {
-    std::cerr << "rumi-merge-replay: " << why << "\n";
+  try {
+    if (!traj_path.empty()) WriteTumTrajectory(traj_path, ToTrajectory(traj));
+  } catch (const std::exception& e) {
+    std::cerr << "rumi-merge-replay: " << e.what() << "\n";
     return 1;
   }
   return 0;

@@ -1,0 +1,27 @@
+#pragma once
+// The one way rumi writes a file that a reader (another process, a later
+// start) may open at any time: a temporary file beside the target, written
+// and fsynced, renamed over the target, then the folder fsynced. A reader sees
+// the old file or the new one, never half of one; a full disk or a killed
+// writer leaves the old file as it was (and no temporary behind on errors).
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace rumi {
+
+// False with *why naming the file and the system's reason (e.g. "No space
+// left on device").
+bool WriteFileAtomically(const std::string& path, const void* data, size_t size, std::string* why);
+inline bool WriteFileAtomically(const std::string& path, const std::string& text, std::string* why) {
+  return WriteFileAtomically(path, text.data(), text.size(), why);
+}
+inline bool WriteFileAtomically(const std::string& path, const std::vector<uint8_t>& bytes, std::string* why) {
+  return WriteFileAtomically(path, bytes.data(), bytes.size(), why);
+}
+
+// Whole file into *out; false with *why when it cannot be read.
+bool ReadFileBytes(const std::string& path, std::vector<uint8_t>* out, std::string* why);
+
+}  // namespace rumi
