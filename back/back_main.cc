@@ -14,7 +14,7 @@
 #include "back/back_options.h"
 #include "back/back_result_io.h"
 #include "back/back_submap_builder.h"
-#include "back/process_runner.h"
+#include "common/process/subprocess.h"
 #include "back/window_dir.h"
 #include "common/config.h"
 #include "common/camera_config.h"

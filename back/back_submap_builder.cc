@@ -11,7 +11,7 @@
 #include <unordered_map>
 
 #include "back/keyframe_orb.h"
-#include "back/process_runner.h"
+#include "common/process/subprocess.h"
 #include "common/camera.h"
 #include "common/logging.h"
 

@@ -17,6 +17,7 @@
 
 #include "common/timestamp.h"
 #include "common/trajectory.h"
+#include "ipc/channel_watch.h"
 
 namespace rumi {
 namespace {
@@ -42,41 +43,38 @@ size_t TrackedFrames(const Submap& s) {
   return n;
 }
 
-std::ofstream OpenOut(const std::string& path) {
-  std::ofstream f(path, std::ios::trunc);
+std::ofstream OpenOut(const std::string& path, bool append) {
+  std::ofstream f(path, append ? std::ios::app : std::ios::trunc);
   if (!f) throw std::runtime_error("cannot write " + path);
   return f;
 }
 
-enum class ConsumerState { kWaiting, kDone, kGone };
-
-// Done: attached and has read everything. Gone: attached once and left or
-// died, or never attached before the attach deadline. Else still waiting.
-ConsumerState Consumer(RingProducer& ring, int64_t now, int64_t attach_deadline) {
-  const RingStats s = ring.Stats();
-  if (s.consumer_alive) return s.tail >= s.head ? ConsumerState::kDone : ConsumerState::kWaiting;
-  if (s.consumer_generation > 0 || now >= attach_deadline) return ConsumerState::kGone;
-  return ConsumerState::kWaiting;
-}
-
 }  // namespace
 
-bool FrontPublisherOptions::Check(std::string* why) const {
-  auto fail = [&](const char* m) {
-    if (why) *why = m;
-    return false;
-  };
-  if (!(resend_interval_s >= 0) || !std::isfinite(resend_interval_s)) return fail("resend_interval_s must be >= 0");
-  if (resend_min_keyframes < 0) return fail("resend_min_keyframes must be >= 0");
-  if (!(wait_for_consumers_s >= 0) || !std::isfinite(wait_for_consumers_s))
-    return fail("wait_for_consumers_s must be >= 0");
-  if (!(wait_when_stopping_s >= 0) || !std::isfinite(wait_when_stopping_s))
-    return fail("wait_when_stopping_s must be >= 0");
-  if (queue_capacity < 1) return fail("queue_capacity must be >= 1");
-  if (!(max_snapshot_share > 0 && max_snapshot_share <= 1)) return fail("max_snapshot_share must be in (0, 1]");
-  if (!(flush_interval_s > 0) || !std::isfinite(flush_interval_s)) return fail("flush_interval_s must be > 0");
-  return true;
+const OptionSpec<FrontPublisherOptions>& FrontPublisherOptions::Spec() {
+  using O = FrontPublisherOptions;
+  static const auto* spec = [] {
+    auto* s = new OptionSpec<O>("publisher");
+    s->Number("resend_interval_s", &O::resend_interval_s, AtLeast(0.0), AtMost(3600.0),
+              "stream time between resends of the current submap to the manager; 0: never");
+    s->Number("resend_min_keyframes", &O::resend_min_keyframes, AtLeast(0), AtMost(100000),
+              "a submap is resent once it has this many keyframes");
+    s->Number("wait_for_consumers_s", &O::wait_for_consumers_s, AtLeast(0.0), AtMost(86400.0),
+              "end of stream: wait this long for the back and the manager to read everything");
+    s->Number("wait_when_stopping_s", &O::wait_when_stopping_s, AtLeast(0.0), AtMost(3600.0),
+              "the same after SIGTERM/SIGINT");
+    s->Number("max_snapshot_share", &O::max_snapshot_share, Above(0.0), AtMost(1.0),
+              "largest share of the stream time the tracking thread spends copying the current submap");
+    s->Number("queue_capacity", &O::queue_capacity, AtLeast(1), AtMost(1000),
+              "windows + resends waiting for the publisher thread (full: dropped and counted)");
+    s->Number("flush_interval_s", &O::flush_interval_s, Above(0.0), AtMost(60.0),
+              "file flush / retry / status period of the publisher thread");
+    return s;
+  }();
+  return *spec;
 }
+
+bool FrontPublisherOptions::Check(std::string* why) const { return Spec().Check(*this, why); }
 
 int LargestFrontSubmap(const std::vector<Submap>& submaps) {
   int best = -1;
@@ -93,16 +91,20 @@ int LargestFrontSubmap(const std::vector<Submap>& submaps) {
 
 FrontPublisher::FrontPublisher(const FrontPublisherOptions& options, const IpcOptions& ipc,
                                const SamplerOptions& sampler, const PinholeCameraOptions& camera)
-    : o_(options), sampler_(sampler, camera) {
+    : o_(options), sampler_(sampler, camera, options.first_window_id) {
   std::string why;
   if (!o_.Check(&why)) throw std::invalid_argument("FrontPublisherOptions: " + why);
   if (!o_.out_dir.empty()) {
     std::filesystem::create_directories(o_.out_dir);
-    frames_file_ = OpenOut(o_.out_dir + "/front_frames.txt");
-    samples_file_ = OpenOut(o_.out_dir + "/front_samples.txt");
+    frames_file_ = OpenOut(o_.out_dir + "/front_frames.txt", o_.append_files);
+    samples_file_ = OpenOut(o_.out_dir + "/front_samples.txt", o_.append_files);
   }
   windows_ = std::make_unique<WindowSender>(ipc);
   submaps_ = std::make_unique<SubmapSender>(ipc, SubmapSource::kFront);
+  if (o_.keep_segments) {
+    windows_->ring().KeepSegmentOnClose();
+    submaps_->ring().KeepSegmentOnClose();
+  }
   opened_ns_ = SteadyNs();
   on_frame_us_.reserve(1 << 14);
   frame_lines_.reserve(256);
@@ -230,7 +232,48 @@ void FrontPublisher::OnSkipped(Timestamp t) {
   Handoff(false);
 }
 
+void FrontPublisher::SetSourceStatus(const std::string& status) {
+  std::lock_guard<std::mutex> l(source_mutex_);
+  source_status_ = status;
+}
+
+void FrontPublisher::Report() {
+  nlohmann::json j;
+  {
+    std::lock_guard<std::mutex> l(mutex_);
+    j["windows_sent"] = p_stats_.windows_sent;
+    j["windows_dropped"] = p_stats_.windows_dropped;
+    j["submap_sends"] = p_stats_.submap_sends;
+    j["submap_drops"] = p_stats_.submap_drops;
+  }
+  {
+    std::lock_guard<std::mutex> l(source_mutex_);
+    j["source"] = source_status_;
+  }
+  j["process"] = "front";
+  j["frames"] = seen_.frames;
+  j["tracked"] = seen_.tracked;
+  j["skipped"] = seen_.skipped;
+  j["state"] = seen_.frames > 0 ? ToString(seen_.last_state) : "starting";
+  j["submap"] = seen_.last_submap;
+  j["t"] = FormatSeconds(seen_.last_t);
+  j["windows"] = seen_.windows;
+  notifier_.Heartbeat(j);
+}
+
 void FrontPublisher::WriteLines(std::vector<FrameLine>* frames, std::vector<SampleLine>* samples) {
+  for (const FrameLine& f : *frames) {
+    ++seen_.frames;
+    seen_.tracked += f.state == TrackingState::kTracking;
+    seen_.skipped += f.skipped;
+    seen_.last_state = f.state;
+    seen_.last_submap = f.submap_id;
+    seen_.last_t = f.t;
+  }
+  for (const SampleLine& s : *samples) {
+    if (s.window_id != seen_.last_window) ++seen_.windows;
+    seen_.last_window = s.window_id;
+  }
   if (frames_file_.is_open() && !frames->empty()) {
     for (const FrameLine& f : *frames)
       frames_file_ << FormatSeconds(f.t) << ' ' << ToString(f.state) << ' ' << f.submap_id << ' ' << f.ms << ' '
@@ -298,14 +341,16 @@ bool FrontPublisher::ConsumersDone(int64_t end_ns, bool stopping) {
   const int64_t drain_deadline = end_ns + static_cast<int64_t>(wait_s * 1e9);
   const int64_t attach_deadline =
       std::min(drain_deadline, opened_ns_ + static_cast<int64_t>(o_.wait_for_consumers_s * 1e9));
-  const ConsumerState w = Consumer(windows_->ring(), now, attach_deadline);
-  const ConsumerState s = Consumer(submaps_->ring(), now, attach_deadline);
-  const bool done = w != ConsumerState::kWaiting &&
-                    (s == ConsumerState::kGone || (s == ConsumerState::kDone && unsent_finished_.empty()));
+  // Channels left for a later consumer (rumid) need nobody to read them now.
+  if (o_.keep_segments && unsent_finished_.empty()) return true;
+  const ConsumerProgress w = Consumer(windows_->ring().Stats(), now >= attach_deadline);
+  const ConsumerProgress s = Consumer(submaps_->ring().Stats(), now >= attach_deadline);
+  const bool done = w != ConsumerProgress::kWaiting &&
+                    (s == ConsumerProgress::kGone || (s == ConsumerProgress::kDone && unsent_finished_.empty()));
   if (done || now < drain_deadline) return done;
   spdlog::warn("front publisher: gave up waiting for consumers after {:.1f} s (windows: {}, submaps: {}, {} "
                "finished submaps unsent)",
-               wait_s, w == ConsumerState::kWaiting ? "unread" : "ok", s == ConsumerState::kWaiting ? "unread" : "ok",
+               wait_s, w == ConsumerProgress::kWaiting ? "unread" : "ok", s == ConsumerProgress::kWaiting ? "unread" : "ok",
                unsent_finished_.size());
   return true;
 }
@@ -341,6 +386,7 @@ void FrontPublisher::Loop() {
       end_ns = end_ns_;
     }
     WriteLines(&frames, &samples);
+    Report();
     if (quit) break;
     if (have_job) {
       Process(job);

@@ -31,14 +31,21 @@
 
 #include "common/camera.h"
 #include "common/submap.h"
+#include "common/option_spec.h"
+#include "common/process/notify.h"
 #include "common/window.h"
 #include "front/sampler.h"
 #include "ipc/channels.h"
 
 namespace rumi {
 
+// YAML section `publisher:`; out_dir, append_files, first_window_id and
+// keep_segments are set by the process, not the config.
 struct FrontPublisherOptions {
   std::string out_dir;              // RUNDIR; empty: no files are written
+  bool append_files = false;        // rumid: a restarted front adds to front_frames.txt
+  int64_t first_window_id = 0;      // rumid: ids stay unique across restarts
+  bool keep_segments = false;       // rumid: channels stay for a consumer that attaches later
   double resend_interval_s = 2.0;   // stream time between resends of the current submap; 0: never
   // The front drops a submap that loses tracking with <= 4 keyframes
   // (docs/front.md); resending such a one would leave a stale map behind.
@@ -52,6 +59,7 @@ struct FrontPublisherOptions {
   double max_snapshot_share = 0.02;
   int queue_capacity = 4;             // windows + resends waiting for the publisher thread
   double flush_interval_s = 0.2;      // file flush / retry period of the publisher thread
+  static const OptionSpec<FrontPublisherOptions>& Spec();
   bool Check(std::string* why = nullptr) const;
 };
 
@@ -99,6 +107,8 @@ class FrontPublisher {
   bool Finish(const std::vector<Submap>& finished, bool stopping = false);
 
   FrontPublisherStats stats() const;
+  // Any thread (the frame source, while it reconnects): shown in the status.
+  void SetSourceStatus(const std::string& status);
 
  private:
   struct FrameLine {
@@ -130,6 +140,7 @@ class FrontPublisher {
   void RetryFinished();
   bool ConsumersDone(int64_t end_ns, bool stopping);
   bool WriteFinalFiles(const std::vector<Submap>& finished);
+  void Report();  // publisher thread: status to the supervisor (notify)
 
   FrontPublisherOptions o_;
   Sampler sampler_;
@@ -170,6 +181,15 @@ class FrontPublisher {
 
   // Publisher thread only.
   std::deque<std::shared_ptr<const Submap>> unsent_finished_;
+  struct Seen {  // what the written lines say
+    uint64_t frames = 0, tracked = 0, skipped = 0, windows = 0;
+    TrackingState last_state = TrackingState::kInitializing;
+    int64_t last_submap = -1, last_window = -1;
+    Timestamp last_t = 0;
+  } seen_;
+  Notifier notifier_;
+  std::mutex source_mutex_;
+  std::string source_status_;
   std::thread thread_;
 };
 

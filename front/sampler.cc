@@ -36,8 +36,8 @@ const char* ToString(Sampler::Phase p) {
   return "?";
 }
 
-Sampler::Sampler(const SamplerOptions& options, const PinholeCameraOptions& camera)
-    : o_(options), camera_(camera) {
+Sampler::Sampler(const SamplerOptions& options, const PinholeCameraOptions& camera, int64_t first_window_id)
+    : o_(options), camera_(camera), first_window_id_(first_window_id), next_window_id_(first_window_id) {
   std::string why;
   if (!o_.Check(&why)) throw std::invalid_argument("SamplerOptions: " + why);
 }

@@ -95,7 +95,8 @@ class Sampler {
  public:
   enum class Phase { kIdle, kS1, kS2, kS3 };  // kIdle: not yet tracked once
 
-  Sampler(const SamplerOptions& options, const PinholeCameraOptions& camera);
+  // Window ids count from first_window_id (rumid: unique across restarts).
+  Sampler(const SamplerOptions& options, const PinholeCameraOptions& camera, int64_t first_window_id = 0);
 
   // Feeds one frame. True when a window completed with this frame (the frame
   // itself then belongs to the next window's cadence, not to *window).
@@ -109,7 +110,7 @@ class Sampler {
   // Tracked frames held since the last sparse sample (pre-loss tail).
   size_t tail() const { return tail_.size(); }
   int s2_stride() const { return s2_stride_; }
-  int64_t windows_emitted() const { return next_window_id_; }
+  int64_t windows_emitted() const { return next_window_id_ - first_window_id_; }
 
  private:
   void Take(const SamplerFrame& f, SampleSet set, std::vector<WindowFrame>* into);
@@ -139,6 +140,7 @@ class Sampler {
   int64_t resume_submap_ = -1;
   int64_t tracked_since_resume_ = 0;
   int64_t keyframes_at_resume_ = 0;
+  int64_t first_window_id_ = 0;
   int64_t next_window_id_ = 0;
 };
 

@@ -246,7 +246,7 @@ RingProducer::~RingProducer() {
   }
   hdr_->producer_pid.store(0);
   hdr_->closed.store(1, std::memory_order_release);
-  RemoveSegment(name_);
+  if (remove_on_close_) RemoveSegment(name_);
 }
 
 uint64_t RingProducer::slot_bytes() const { return hdr_->slot_bytes; }
@@ -373,8 +373,8 @@ bool RingConsumer::TryAttach() {
                   ", we expect " + Describe(expected_.slot_count, expected_.slot_bytes, kRingLayoutVersion);
     return false;
   }
-  if (h->closed.load(std::memory_order_acquire)) {
-    last_error_.clear();  // producer left; wait for the next one
+  if (h->closed.load(std::memory_order_acquire) && h->tail.load() >= h->head.load()) {
+    last_error_.clear();  // producer left and nothing is unread: wait for the next one
     return false;
   }
   const ProcessId c = Consumer(h);

@@ -18,7 +18,9 @@
 // sides refuse with an error naming both layouts.
 //
 // The producer owns the segment: it creates it and removes it on clean exit
-// (marking it closed first, so a consumer reattaches to the next one).
+// (marking it closed first, so a consumer reattaches to the next one), or
+// leaves it closed for a consumer that attaches later (KeepSegmentOnClose: a
+// consumer attaches to a closed segment only while it holds unread messages).
 #include <atomic>
 #include <cstdint>
 #include <memory>
@@ -152,6 +154,10 @@ class RingProducer {
   uint64_t slot_bytes() const;
   // Leaves the segment in place on destruction (tests simulating a crash).
   void KeepSegmentOnExit() { keep_ = true; }
+  // On destruction: mark the channel closed but leave the segment, so a
+  // consumer that attaches later still reads what is unread (rumid removes
+  // the instance's segments once every process is gone).
+  void KeepSegmentOnClose() { remove_on_close_ = false; }
 
  private:
   std::string name_;
@@ -160,6 +166,7 @@ class RingProducer {
   uint64_t head_ = 0;
   bool acquired_ = false;
   bool keep_ = false;
+  bool remove_on_close_ = true;
   // Liveness of the consumer, re-checked at most every 100 ms (it costs a
   // syscall and two /proc reads) or when another consumer attached.
   bool ConsumerAlive();

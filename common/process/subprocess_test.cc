@@ -1,4 +1,4 @@
-#include "back/process_runner.h"
+#include "common/process/subprocess.h"
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -15,10 +15,10 @@ namespace {
 
 std::string TempPath(const std::string& name) {
   return (std::filesystem::temp_directory_path() /
-          ("rumi_process_runner_test_" + std::to_string(::getpid()) + "_" + name)).string();
+          ("rumi_subprocess_test_" + std::to_string(::getpid()) + "_" + name)).string();
 }
 
-TEST(ProcessRunnerTest, SuccessAndLog) {
+TEST(Subprocess, SuccessAndLog) {
   const std::string log = TempPath("ok.log");
   std::filesystem::remove(log);
   RunRequest r;
@@ -31,7 +31,7 @@ TEST(ProcessRunnerTest, SuccessAndLog) {
   std::filesystem::remove(log);
 }
 
-TEST(ProcessRunnerTest, ExtraEnvironmentOverridesAndKeepsTheRest) {
+TEST(Subprocess, ExtraEnvironmentOverridesAndKeepsTheRest) {
   const std::string log = TempPath("env.log");
   std::filesystem::remove(log);
   ::setenv("RUMI_RUNNER_TEST_KEEP", "kept", 1);
@@ -47,7 +47,7 @@ TEST(ProcessRunnerTest, ExtraEnvironmentOverridesAndKeepsTheRest) {
   std::filesystem::remove(log);
 }
 
-TEST(ProcessRunnerTest, NonZeroExitIsFailureWithLogTail) {
+TEST(Subprocess, NonZeroExitIsFailureWithLogTail) {
   const std::string log = TempPath("fail.log");
   std::filesystem::remove(log);
   RunRequest r;
@@ -61,7 +61,7 @@ TEST(ProcessRunnerTest, NonZeroExitIsFailureWithLogTail) {
   std::filesystem::remove(log);
 }
 
-TEST(ProcessRunnerTest, MissingExecutableIsLaunchFailure) {
+TEST(Subprocess, MissingExecutableIsLaunchFailure) {
   RunRequest r;
   r.argv = {"/nonexistent/rumi-colmap-xyz", "mapper"};
   const RunResult res = RunProcess(r);
@@ -80,7 +80,7 @@ bool Alive(pid_t pid) {
   return close == std::string::npos || close + 2 >= comm_and_rest.size() || comm_and_rest[close + 2] != 'Z';
 }
 
-TEST(ProcessRunnerTest, TimeoutKillsTheWholeProcessGroup) {
+TEST(Subprocess, TimeoutKillsTheWholeProcessGroup) {
   // The child starts a grandchild that would outlive a plain kill of the child.
   const std::string pid_file = TempPath("grandchild.pid");
   std::filesystem::remove(pid_file);
@@ -103,7 +103,7 @@ TEST(ProcessRunnerTest, TimeoutKillsTheWholeProcessGroup) {
   std::filesystem::remove(pid_file);
 }
 
-TEST(ProcessRunnerTest, CancelStopsTheChild) {
+TEST(Subprocess, CancelStopsTheChild) {
   std::atomic<bool> cancel{false};
   RunRequest r;
   r.argv = {"sleep", "30"};
@@ -117,7 +117,7 @@ TEST(ProcessRunnerTest, CancelStopsTheChild) {
   EXPECT_EQ(res.status, RunStatus::kCancelled);
 }
 
-TEST(ProcessRunnerTest, ChildRunsAtIdlePriority) {
+TEST(Subprocess, ChildRunsAtIdlePriority) {
   const std::string log = TempPath("prio.log");
   std::filesystem::remove(log);
   RunRequest r;

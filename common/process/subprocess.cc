@@ -1,4 +1,4 @@
-#include "back/process_runner.h"
+#include "common/process/subprocess.h"
 
 #include <dirent.h>
 #include <fcntl.h>
@@ -14,6 +14,7 @@
 #include <cstdlib>
 #include <chrono>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <thread>
 
@@ -85,61 +86,83 @@ std::string FileTail(const std::string& path, size_t max_bytes) {
   return s;
 }
 
-RunResult RunProcess(const RunRequest& req) {
-  RunResult res;
-  if (req.argv.empty()) {
-    res.message = "empty command";
-    return res;
+namespace {
+
+// Set the I/O priority class of the calling process to idle (ioprio_set has
+// no glibc wrapper).
+void SetIdleIo() {
+  constexpr int kIoprioWhoProcess = 1, kIoprioClassIdle = 3, kIoprioClassShift = 13;
+  ::syscall(SYS_ioprio_set, kIoprioWhoProcess, 0, kIoprioClassIdle << kIoprioClassShift);
+}
+
+}  // namespace
+
+pid_t SpawnChild(const SpawnOptions& o, std::string* why) {
+  if (o.argv.empty()) {
+    if (why) *why = "empty command";
+    return -1;
   }
   std::vector<char*> argv;
-  for (const std::string& a : req.argv) argv.push_back(const_cast<char*>(a.c_str()));
+  for (const std::string& a : o.argv) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
   // The child's environment is prepared here: after fork only exec is safe.
   std::vector<std::string> env_strings;
+  auto name_of = [](const std::string& e) { return e.substr(0, e.find('=')); };
   for (char** e = environ; *e != nullptr; ++e) {
     const std::string entry(*e);
-    const std::string name = entry.substr(0, entry.find('='));
     bool overridden = false;
-    for (const std::string& x : req.env) overridden |= x.compare(0, name.size() + 1, name + "=") == 0;
+    for (const std::string& x : o.env) overridden |= name_of(x) == name_of(entry);
     if (!overridden) env_strings.push_back(entry);
   }
-  env_strings.insert(env_strings.end(), req.env.begin(), req.env.end());
+  for (const std::string& x : o.env)
+    if (x.size() > name_of(x).size() + 1) env_strings.push_back(x);  // "NAME=" alone removes NAME
   std::vector<char*> envp;
   for (const std::string& e : env_strings) envp.push_back(const_cast<char*>(e.c_str()));
   envp.push_back(nullptr);
 
-  const std::string log = req.log_path.empty() ? "/dev/null" : req.log_path;
-  const int log_fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
-  if (log_fd < 0) {
-    res.message = "cannot open log file " + log + ": " + std::strerror(errno);
-    return res;
+  int log_fd = -1;
+  if (!o.log_path.empty()) {
+    log_fd = ::open(o.log_path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC | (o.truncate_log ? O_TRUNC : O_APPEND), 0644);
+    if (log_fd < 0) {
+      if (why) *why = "cannot open log file " + o.log_path + ": " + std::strerror(errno);
+      return -1;
+    }
   }
   // A pipe closed on exec tells the parent whether exec itself failed.
   int err_pipe[2];
   if (::pipe2(err_pipe, O_CLOEXEC) != 0) {
-    ::close(log_fd);
-    res.message = std::string("pipe: ") + std::strerror(errno);
-    return res;
+    if (log_fd >= 0) ::close(log_fd);
+    if (why) *why = std::string("pipe: ") + std::strerror(errno);
+    return -1;
   }
-  const auto t0 = std::chrono::steady_clock::now();
   const pid_t parent = ::getpid();
   const pid_t pid = ::fork();
   if (pid < 0) {
-    ::close(log_fd);
+    if (log_fd >= 0) ::close(log_fd);
     ::close(err_pipe[0]);
     ::close(err_pipe[1]);
-    res.message = std::string("fork: ") + std::strerror(errno);
-    return res;
+    if (why) *why = std::string("fork: ") + std::strerror(errno);
+    return -1;
   }
   if (pid == 0) {  // child: only async-signal-safe calls until exec
-    ::setpgid(0, 0);
-    // Its own group shields COLMAP from the caller's group signals, so make
-    // sure it dies with rumi-back even when rumi-back is SIGKILLed.
-    ::prctl(PR_SET_PDEATHSIG, SIGKILL);
-    if (::getppid() != parent) ::_exit(127);
-    if (req.low_priority) SetIdleScheduling();
-    ::dup2(log_fd, STDOUT_FILENO);
-    ::dup2(log_fd, STDERR_FILENO);
+    if (o.process_group >= 0) ::setpgid(0, o.process_group);
+    if (o.death_signal > 0) {
+      ::prctl(PR_SET_PDEATHSIG, o.death_signal);
+      if (::getppid() != parent) ::_exit(127);  // the parent died before the prctl
+    }
+    // Handlers are reset by exec, ignored/blocked signals are not: start clean.
+    sigset_t none;
+    sigemptyset(&none);
+    ::sigprocmask(SIG_SETMASK, &none, nullptr);
+    for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGPIPE, SIGCHLD}) ::signal(sig, SIG_DFL);
+    if (o.low_priority) {
+      SetIdleScheduling();
+      SetIdleIo();
+    }
+    if (log_fd >= 0) {
+      ::dup2(log_fd, STDOUT_FILENO);
+      ::dup2(log_fd, STDERR_FILENO);
+    }
     const int devnull = ::open("/dev/null", O_RDONLY);
     if (devnull >= 0) ::dup2(devnull, STDIN_FILENO);
     ::execvpe(argv[0], argv.data(), envp.data());
@@ -148,12 +171,53 @@ RunResult RunProcess(const RunRequest& req) {
     (void)w;
     ::_exit(127);
   }
-  ::setpgid(pid, pid);  // also from the parent: no race with an early kill
-  ::close(log_fd);
+  // Also from the parent: no race with an early kill of the group.
+  if (o.process_group >= 0) ::setpgid(pid, o.process_group == 0 ? pid : o.process_group);
+  if (log_fd >= 0) ::close(log_fd);
   ::close(err_pipe[1]);
   int exec_errno = 0;
   const ssize_t got = ::read(err_pipe[0], &exec_errno, sizeof(exec_errno));
   ::close(err_pipe[0]);
+  if (got == static_cast<ssize_t>(sizeof(exec_errno))) {
+    ::waitpid(pid, nullptr, 0);
+    if (why) *why = "cannot execute '" + o.argv[0] + "': " + std::strerror(exec_errno);
+    return -1;
+  }
+  return pid;
+}
+
+std::string DescribeWaitStatus(int status) {
+  if (WIFEXITED(status)) return "exited with code " + std::to_string(WEXITSTATUS(status));
+  if (WIFSIGNALED(status)) {
+    return "was killed by signal " + std::to_string(WTERMSIG(status)) + " (" + strsignal(WTERMSIG(status)) + ")";
+  }
+  return "ended with status " + std::to_string(status);
+}
+
+std::string ExecutableDir() {
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (ec) return ".";
+  return self.parent_path().string();
+}
+
+RunResult RunProcess(const RunRequest& req) {
+  RunResult res;
+  SpawnOptions so;
+  so.argv = req.argv;
+  so.log_path = req.log_path.empty() ? "/dev/null" : req.log_path;
+  so.env = req.env;
+  so.process_group = 0;  // its own: COLMAP and anything it starts go together
+  so.death_signal = SIGKILL;
+  so.low_priority = req.low_priority;
+  const auto t0 = std::chrono::steady_clock::now();
+  std::string why;
+  const pid_t pid = SpawnChild(so, &why);
+  if (pid < 0) {
+    res.status = RunStatus::kLaunchFailed;
+    res.message = why;
+    return res;
+  }
 
   auto elapsed = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -194,11 +258,6 @@ RunResult RunProcess(const RunRequest& req) {
   // loaded the machine is, unlike the wall clock.
   res.cpu_seconds = static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
                     1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
-  if (got == static_cast<ssize_t>(sizeof(exec_errno))) {
-    res.status = RunStatus::kLaunchFailed;
-    res.message = "cannot execute '" + req.argv[0] + "': " + std::strerror(exec_errno);
-    return res;
-  }
   if (stop_reason != RunStatus::kOk) {
     res.status = stop_reason;
     res.message = req.argv[0] + " " + (req.argv.size() > 1 ? req.argv[1] + " " : "") +
