@@ -76,12 +76,17 @@ TEST_F(BackCliTest, BadConfigAndMissingInputs) {
   EXPECT_EQ(Run(win + " --config " + Config(", min_registered_images: 1")), 2);
   EXPECT_EQ(Run("--window-dir " + (dir_ / "nowhere").string() + " --out " + (dir_ / "o").string() +
                 " --config " + Config("")),
-            1);
-  // Top-level typo (not a section of any process) -> 2; other processes' sections are fine.
+            2);  // a missing input: bad input, like a bad config
+  // A typo anywhere stops every process: at the top level, and in another
+  // process's section (the front's), not only in back:.
   const std::string typo = Config("");
-  std::ofstream(typo, std::ios::app) << "front: {x: 1}\nlog_levle: debug\n";
+  std::ofstream(typo, std::ios::app) << "log_levle: debug\n";
   EXPECT_EQ(Run(win + " --config " + typo), 2);
   EXPECT_NE(Log().find("log_levle"), std::string::npos) << Log();
+  const std::string front_typo = Config("");
+  std::ofstream(front_typo, std::ios::app) << "front: {fsp: 30}\n";
+  EXPECT_EQ(Run(win + " --config " + front_typo), 2);
+  EXPECT_NE(Log().find("front.fsp"), std::string::npos) << Log();
   EXPECT_EQ(Run("--instance 0 --config " + Config("")), 2);  // shared-memory mode needs --work
 }
 

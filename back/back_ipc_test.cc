@@ -15,6 +15,7 @@
 
 #include "back/canned_colmap_model.h"
 #include "common/timestamp.h"
+#include "common/process/exit_codes.h"
 #include "ipc/channels.h"
 
 namespace fs = std::filesystem;
@@ -80,7 +81,7 @@ class BackIpcTest : public ::testing::Test {
                      << "ipc: {window_slot_bytes: " << ipc_.window_slot_bytes
                      << ", submap_slot_bytes: " << ipc_.submap_slot_bytes << "}\n"
                      << "log_level: debug\n"
-                     << "front: {anything: 1}\nsampler: {inter: 5}\nmanager: {whatever: true}\n";
+                     << "front: {fps: 30}\nsampler: {inter: 5}\nmanager: {search_n: 10}\n";
     return p.string();
   }
 
@@ -238,7 +239,9 @@ TEST_F(BackIpcTest, WindowsInBackSubmapsOutThenCleanExit) {
   EXPECT_FALSE(ReadRingStats(SegmentName(ipc_.instance, kBackSubmapChannel), &rs));
 }
 
-TEST_F(BackIpcTest, SigtermCancelsRunningColmapAndExitsZero) {
+// A stop while COLMAP runs cancels it, kills its process group, closes the
+// channel, and the exit code says the work was not done (it used to be 0).
+TEST_F(BackIpcTest, SigtermCancelsRunningColmapAndSaysSo) {
   std::ofstream(dir_ / "hang") << "1\n";
   const std::string config = Config(/*max_queue_windows=*/1);
   WindowSender tx(ipc_);
@@ -262,7 +265,7 @@ TEST_F(BackIpcTest, SigtermCancelsRunningColmapAndExitsZero) {
 
   const auto t1 = Clock::now();
   ASSERT_EQ(::kill(pid_, SIGTERM), 0);
-  EXPECT_EQ(Wait(10), 0) << Log();
+  EXPECT_EQ(Wait(10), kExitStopped) << Log();
   const double secs = Since(t1);
   std::printf("rumi-back stopped %.3f s after SIGTERM\n", secs);
   EXPECT_LT(secs, 3.0) << "docs/eval.md: stop within 3 s";

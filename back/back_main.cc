@@ -1,27 +1,25 @@
 // rumi-back: turns sampled image windows into back submaps with COLMAP.
 //   rumi-back --window-dir DIR --config FILE --out DIR [--bench] [--groundtruth FILE]
 // processes one window stored as a folder;
-//   rumi-back --instance ID [--config FILE] --work DIR
-// is the shared-memory mode of `rumi eval run` (back_ipc_main.h, docs/back.md).
+//   rumi-back --instance ID [--config FILE] --work DIR [--daemon]
+// is the process of `rumi eval run` and rumid (RunBack, back/back_run.h).
 #include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
 
-#include <atomic>
-#include <csignal>
 #include <cstdio>
-#include <fstream>
 
-#include "back/back_ipc_main.h"
 #include "back/back_options.h"
 #include "back/back_result_io.h"
+#include "back/back_run.h"
 #include "back/back_submap_builder.h"
-#include "common/process/subprocess.h"
 #include "back/window_dir.h"
-#include "common/config.h"
-#include "common/camera_config.h"
+#include "common/atomic_file.h"
 #include "common/geometry.h"
+#include "common/process/exit_codes.h"
+#include "common/process/subprocess.h"
 #include "common/trajectory_eval.h"
+#include "configs/process_setup.h"
 #include "ipc/submap_codec.h"
-#include "common/logging.h"
 
 using namespace rumi;
 
@@ -41,28 +39,29 @@ void PrintAte(const Submap& s, const Trajectory& gt) {
   }
 }
 
-std::atomic<bool> g_stop{false};
-void OnSignal(int) { g_stop.store(true); }
-
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"rumi-back: COLMAP-built back submaps from sampled image windows"};
   std::string window_dir, config_path, out_dir, gt_path, log_level, instance, work_dir;
-  double wait_for_producer_s = 0.0, wait_for_consumer_s = 30.0;
-  bool bench = false, keep = false;
+  double wait_for_producer_s = -1, wait_for_consumer_s = -1;
+  int64_t first_submap_id = 0;
+  bool bench = false, keep = false, daemon = false;
   WindowDirOptions wd;
   app.add_option("--window-dir", window_dir, "folder with rgb.txt-style index and images");
-  app.add_option("--config", config_path, "rumi config with camera: and back: sections")->check(CLI::ExistingFile);
+  app.add_option("--config", config_path, "rumi config (every section is checked; camera: for file mode)")
+      ->check(CLI::ExistingFile);
   app.add_option("--out", out_dir, "output folder (result.json, submap_<id>.json, submap_<id>_tum.txt)");
   app.add_option("--instance", instance, "rumi instance id: windows from shared memory (rumi_<ID>_windows)");
   app.add_option("--work", work_dir, "shared-memory mode: folder for back_stats.json");
-  app.add_option("--wait-for-producer", wait_for_producer_s,
-                 "shared-memory mode: no window producer after this many seconds -> done (0: wait forever)")
+  app.add_option("--wait-for-producer", wait_for_producer_s, "overrides back.wait_for_producer_s")
       ->check(CLI::NonNegativeNumber);
-  app.add_option("--wait-for-consumer", wait_for_consumer_s,
-                 "shared-memory mode: before closing, wait up to this long for the manager to read all submaps")
+  app.add_option("--wait-for-consumer", wait_for_consumer_s, "overrides back.wait_for_consumer_s")
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--first-submap-id", first_submap_id, "rumid: back submap ids start here")
+      ->check(CLI::NonNegativeNumber);
+  app.add_flag("--daemon", daemon,
+               "rumid: spool windows in --work until built, wait for a restarted front, leave the channel");
   app.add_flag("--bench", bench, "print the time split per COLMAP step");
   app.add_option("--groundtruth", gt_path, "TUM ground truth: print ATE (Sim3) per submap");
   app.add_option("--first", wd.first, "first listed frame used")->check(CLI::NonNegativeNumber);
@@ -73,77 +72,46 @@ int main(int argc, char** argv) {
   app.add_option("--log-level", log_level, "trace|debug|info|warn|error|off (overrides the config)");
   CLI11_PARSE(app, argc, argv);
 
-  BackOptions options;
-  PinholeCameraOptions camera;
-  IpcOptions ipc;
-  std::string config_log_level = "info";
-  bool have_camera = false;
-  try {
-    if (!config_path.empty()) {
-      ConfigSection root = LoadConfigFile(config_path);
-      ConfigSection back = root.Child("back");
-      ReadOptions(back, &options);
-      CheckOptions(options, root, "back");
-      back.Finish();
-      if (root.Has("camera")) {  // file mode needs it; a window over ipc carries its camera
-        ConfigSection cs = root.Child("camera");
-        ReadOptions(cs, &camera);
-        cs.Finish();
-        have_camera = true;
-      }
-      ConfigSection is = root.Child("ipc");
-      ReadOptions(is, &ipc);
-      is.Finish();
-      root.Read("log_level", &config_log_level);
-      // Other processes' sections share the file; anything else is a typo.
-      for (const char* other : {"front", "sampler", "manager"}) root.Ignore(other);
-      root.Finish();
-    }
-  } catch (const ConfigError& e) {
-    SetupLogging("back", "info");
-    spdlog::error("{}", e.what());
-    return 2;
-  }
-  if (log_level.empty()) log_level = config_log_level;
-  if (!SetupLogging("back", log_level)) spdlog::warn("unknown log level '{}'", log_level);
+  ProcessSetup setup("back", config_path, log_level);
+  if (!setup.Load()) return kExitBadInput;
+  BackOptions options = setup.config().back;
   if (keep) options.keep_workspaces = true;
+  if (wait_for_producer_s >= 0) options.wait_for_producer_s = wait_for_producer_s;
+  if (wait_for_consumer_s >= 0) options.wait_for_consumer_s = wait_for_consumer_s;
 
   if (!instance.empty()) {
-    BackIpcRunOptions run;
+    BackRunOptions run;
     run.back = options;
-    run.ipc = ipc;
+    run.ipc = setup.config().ipc;
     run.ipc.instance = instance;
     run.work_dir = work_dir;
-    run.wait_for_producer_s = wait_for_producer_s;
-    run.wait_for_consumer_s = wait_for_consumer_s;
+    run.spool = daemon;
+    run.producer_death_ends = !daemon;
+    run.keep_segments = daemon;
+    run.first_submap_id = first_submap_id;
     std::string why;
     if (!run.ipc.Check(&why)) {
       spdlog::error("--instance '{}': {}", instance, why);
-      return 2;
+      return kExitBadInput;
     }
     if (work_dir.empty()) {
       spdlog::error("--instance needs --work DIR (for back_stats.json)");
-      return 2;
+      return kExitBadInput;
     }
-    struct sigaction sa {};
-    sa.sa_handler = OnSignal;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, nullptr);
-    sigaction(SIGTERM, &sa, nullptr);
     if (options.low_priority) spdlog::info("priority: {}", LowerOwnPriority());
-    return RunBackIpc(run, &g_stop);
+    return RunBack(run, setup.stop());
   }
   if (options.low_priority) spdlog::info("priority: {}", LowerOwnPriority());
-  if (window_dir.empty() || out_dir.empty() || !have_camera) {
+  if (window_dir.empty() || out_dir.empty() || !setup.config().has_camera) {
     spdlog::error("file mode needs --window-dir, --out and a --config with a camera: section");
-    return 2;
+    return kExitBadInput;
   }
-
-  ImageWindow window;
+  const PinholeCameraOptions& camera = setup.config().camera;
   std::string error;
+  ImageWindow window;
   if (!ReadWindowDir(window_dir, camera, wd, 0, &window, &error)) {
     spdlog::error("{}", error);
-    return 1;
+    return kExitBadInput;
   }
   spdlog::info("window: {} frames {}x{} from {}", window.frames.size(), window.camera.width,
                window.camera.height, window_dir);
@@ -151,17 +119,13 @@ int main(int argc, char** argv) {
   const BackResult result = builder.Build(window);
   if (!WriteBackResult(result, out_dir, &error)) {
     spdlog::error("{}", error);
-    return 1;
+    return kExitError;
   }
   // The shared binary format as well (ipc/submap_codec.h), as the manager reads it.
   for (const Submap& s : result.submaps) {
-    const std::vector<uint8_t> bytes = EncodeSubmap(s);
-    const std::string path = out_dir + "/submap_" + std::to_string(s.id) + ".bin";
-    std::ofstream f(path, std::ios::binary);
-    f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-    if (!f) {
-      spdlog::error("cannot write {}", path);
-      return 1;
+    if (!WriteFileAtomically(out_dir + "/submap_" + std::to_string(s.id) + ".bin", EncodeSubmap(s), &error)) {
+      spdlog::error("{}", error);
+      return kExitError;
     }
   }
   if (bench) {
@@ -193,5 +157,5 @@ int main(int argc, char** argv) {
       spdlog::error("{}", e.what());
     }
   }
-  return result.ok() ? 0 : 4;
+  return result.ok() ? kExitDone : kExitWindowFailed;
 }

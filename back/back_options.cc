@@ -32,6 +32,12 @@ const OptionSpec<BackOptions>& BackOptions::Spec() {
     s->Number("max_queue_windows", &O::max_queue_windows, AtLeast(1), AtMost(1000),
               "windows waiting; the oldest is dropped beyond it");
     s->Flag("low_priority", &O::low_priority, "SCHED_IDLE (or nice 19) for rumi-back and COLMAP");
+    s->Number("wait_for_producer_s", &O::wait_for_producer_s, AtLeast(0.0), AtMost(86400.0),
+              "no window producer after this long: done (0: wait forever)");
+    s->Number("wait_for_consumer_s", &O::wait_for_consumer_s, AtLeast(0.0), AtMost(86400.0),
+              "at the end, wait this long for the manager to read every back submap");
+    s->Number("peer_timeout_s", &O::peer_timeout_s, Above(0.0), AtMost(86400.0),
+              "a manager gone this long (not restarted) ends the back (exit 6)");
     s->Flag("normalize_contrast", &O::normalize_contrast, "stretch grey levels of dark or washed-out frames");
     s->Number("sift_peak_threshold", &O::sift_peak_threshold, AtLeast(0.0), AtMost(1.0),
               "COLMAP SiftExtraction.peak_threshold; 0: COLMAP's default");

@@ -39,6 +39,13 @@ struct BackOptions {
   // keyframes only repeat what the front mapped. 0 = off.
   int orb_features = 1000;
   int max_queue_windows = 2;           // windows waiting; the oldest is dropped beyond it
+  // The run loop (rumi-back with channels): a window producer not seen after
+  // wait_for_producer_s counts as never appeared (0: wait forever); at the
+  // end, wait up to wait_for_consumer_s for the manager to read every back
+  // submap; a manager gone for peer_timeout_s (not restarted) ends the back.
+  double wait_for_producer_s = 0.0;
+  double wait_for_consumer_s = 30.0;
+  double peer_timeout_s = 60.0;
   bool low_priority = true;            // SCHED_IDLE (or nice 19) for rumi-back and COLMAP
   // Dark or washed-out frames (the ones the front loses) give SIFT too few
   // features at COLMAP's absolute peak threshold: stretch their grey levels.

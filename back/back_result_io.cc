@@ -1,7 +1,10 @@
 #include "back/back_result_io.h"
 
 #include <filesystem>
-#include <fstream>
+#include <sstream>
+
+#include "common/atomic_file.h"
+#include "common/trajectory.h"
 
 namespace rumi {
 
@@ -88,28 +91,18 @@ bool WriteBackResult(const BackResult& r, const std::string& dir, std::string* e
   std::filesystem::create_directories(dir, ec);
   if (ec) return fail("cannot create " + dir + ": " + ec.message());
   auto write = [&](const std::string& name, const std::string& text) {
-    const std::string path = dir + "/" + name;
-    std::ofstream out(path);
-    out << text;
-    out.close();
-    if (!out) return fail("cannot write " + path);
-    return true;
+    std::string why;
+    return WriteFileAtomically(dir + "/" + name, text, &why) || fail(why);
   };
   if (!write("result.json", BackResultSummaryJson(r).dump(1) + "\n")) return false;
   for (const Submap& s : r.submaps) {
     const std::string stem = "submap_" + std::to_string(s.id);
     if (!write(stem + ".json", SubmapToJson(s).dump() + "\n")) return false;
-    std::string tum = "# back submap " + std::to_string(s.id) + ": timestamp tx ty tz qx qy qz qw (T_wc)\n";
-    for (const Keyframe& kf : s.keyframes) {
-      const Se3 T_wc = kf.T_wc();
-      const Eigen::Quaterniond& q = T_wc.rotation();
-      const Eigen::Vector3d& t = T_wc.translation();
-      char buf[256];
-      std::snprintf(buf, sizeof(buf), " %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n", t.x(), t.y(), t.z(),
-                    q.x(), q.y(), q.z(), q.w());
-      tum += FormatSeconds(kf.timestamp) + buf;
-    }
-    if (!write(stem + "_tum.txt", tum)) return false;
+    Trajectory traj;
+    for (const Keyframe& kf : s.keyframes) traj.push_back({kf.timestamp, kf.T_wc()});
+    std::ostringstream tum;
+    FormatTumTrajectory(traj, tum);
+    if (!write(stem + "_tum.txt", tum.str())) return false;
   }
   return true;
 }

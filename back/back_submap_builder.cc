@@ -7,12 +7,14 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <unordered_map>
 
 #include "back/keyframe_orb.h"
-#include "common/process/subprocess.h"
 #include "common/camera.h"
+#include "common/process/process_info.h"
+#include "common/process/subprocess.h"
 #include "common/logging.h"
 
 namespace fs = std::filesystem;
@@ -91,13 +93,24 @@ std::vector<fs::path> ModelFolders(const fs::path& sparse) {
   return out;
 }
 
-// Removes the workspace unless asked to keep it.
+// A workspace in use holds kOwnerFile with its process's identity; one whose
+// owner is dead was left by a killed rumi-back (ReclaimStaleWorkspaces).
+constexpr const char* kOwnerFile = ".rumi-back-owner";
+
+// Removes the workspace unless asked to keep it (a kept one is released: no owner).
 class WorkspaceGuard {
  public:
-  WorkspaceGuard(fs::path dir, bool keep) : dir_(std::move(dir)), keep_(keep) {}
+  WorkspaceGuard(fs::path dir, bool keep) : dir_(std::move(dir)), keep_(keep) {
+    const ProcessId me = SelfProcessId();
+    std::ofstream(dir_ / kOwnerFile) << me.pid << " " << me.start_ticks << "\n";
+  }
   ~WorkspaceGuard() {
-    if (keep_ || dir_.empty()) return;
+    if (dir_.empty()) return;
     std::error_code ec;
+    if (keep_) {
+      fs::remove(dir_ / kOwnerFile, ec);
+      return;
+    }
     fs::remove_all(dir_, ec);
     if (ec) spdlog::warn("cannot remove workspace {}: {}", dir_.string(), ec.message());
   }
@@ -128,6 +141,25 @@ cv::Mat StretchContrast(const cv::Mat& img) {
 }
 
 }  // namespace
+
+std::vector<std::string> ReclaimStaleWorkspaces(const std::string& root) {
+  std::vector<std::string> removed;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(root, ec)) {
+    if (!e.is_directory() || e.path().filename().string().rfind("window_", 0) != 0) continue;
+    std::ifstream in(e.path() / kOwnerFile);
+    ProcessId owner;
+    if (!(in >> owner.pid >> owner.start_ticks)) continue;  // kept on purpose, or not ours
+    if (ProcessAlive(owner)) continue;
+    std::error_code rec;
+    fs::remove_all(e.path(), rec);
+    if (!rec) {
+      spdlog::info("back: removed the workspace {} of a rumi-back that died (pid {})", e.path().string(), owner.pid);
+      removed.push_back(e.path().string());
+    }
+  }
+  return removed;
+}
 
 BackSubmapBuilder::BackSubmapBuilder(const BackOptions& options, int64_t first_submap_id)
     : options_(options), next_submap_id_(first_submap_id) {}
@@ -268,6 +300,7 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
       req.low_priority = options_.low_priority;
       req.cancel = cancel;
       spdlog::debug("window {}: colmap {}", window.id, step.args[0]);
+      if (on_stage_) on_stage_(step.args[0]);
       const RunResult r = RunProcess(req);
       *step.seconds += r.seconds;  // a retry adds to the first attempt's time
       *step.cpu_seconds += r.cpu_seconds;

@@ -4,6 +4,7 @@
 // COLMAP CLI (feature_extractor, matcher, mapper) in a per-window workspace
 // with fixed PINHOLE intrinsics and reads the binary models back.
 #include <atomic>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -65,11 +66,18 @@ class BackSubmapBuilder {
   BackResult Build(const ImageWindow& window, const std::atomic<bool>* cancel = nullptr);
 
   const BackOptions& options() const { return options_; }
+  // Called with the COLMAP step about to run ("feature_extractor", ...).
+  void set_stage_callback(std::function<void(const std::string&)> f) { on_stage_ = std::move(f); }
 
  private:
   BackOptions options_;
+  std::function<void(const std::string&)> on_stage_;
   int64_t next_submap_id_;
   int64_t workspace_counter_ = 0;
 };
+
+// Removes the workspaces under root whose rumi-back died (kill -9 leaves
+// 10-11 MB per window). Returns the folders removed.
+std::vector<std::string> ReclaimStaleWorkspaces(const std::string& root);
 
 }  // namespace rumi

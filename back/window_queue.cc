@@ -2,11 +2,12 @@
 
 namespace rumi {
 
-bool WindowQueue::Push(ImageWindow window) {
+bool WindowQueue::Push(ImageWindow window, std::vector<int64_t>* dropped_ids) {
   bool dropped = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     while (queue_.size() >= capacity_) {
+      if (dropped_ids) dropped_ids->push_back(queue_.front().id);
       queue_.pop_front();
       ++dropped_;
       dropped = true;

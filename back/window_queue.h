@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <deque>
 #include <mutex>
+#include <vector>
 
 #include "common/window.h"
 
@@ -16,8 +17,9 @@ class WindowQueue {
  public:
   explicit WindowQueue(size_t capacity) : capacity_(capacity < 1 ? 1 : capacity) {}
 
-  // Returns false when a window had to be dropped to make room.
-  bool Push(ImageWindow window);
+  // Returns false when a window had to be dropped to make room; the ids of
+  // the dropped ones go to *dropped_ids when given.
+  bool Push(ImageWindow window, std::vector<int64_t>* dropped_ids = nullptr);
   // Waits up to timeout for a window; false on timeout or after Close().
   bool Pop(ImageWindow* window, std::chrono::milliseconds timeout);
   void Close();

@@ -1,12 +1,16 @@
 # Shared build conventions: one library per folder, foo.cc / foo_test.cc side by side.
 set(RUMI_WARNINGS -Wall -Wextra -Wpedantic -Wno-unused-parameter)
 
-# rumi_folder_library(NAME DEPS...)
-# Builds every *.cc of the current folder that is not a test, benchmark or *_main.cc
-# into library NAME, and registers each *_test.cc as a ctest test linked against it.
+# rumi_folder_library(NAME DEPS... [TEST_DEPS...] [EXCLUDE file.cc...])
+# Builds every *.cc of the current folder that is not a test, benchmark, *_main.cc
+# or excluded into library NAME, and registers each *_test.cc as a ctest test
+# linked against it.
 function(rumi_folder_library name)
-  cmake_parse_arguments(ARG "" "" "DEPS;TEST_DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "" "" "DEPS;TEST_DEPS;EXCLUDE" ${ARGN})
   file(GLOB _all CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.cc)
+  foreach(x ${ARG_EXCLUDE})
+    list(REMOVE_ITEM _all ${CMAKE_CURRENT_SOURCE_DIR}/${x})
+  endforeach()
   set(_lib)
   set(_tests)
   set(_benches)

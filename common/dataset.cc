@@ -40,6 +40,11 @@ bool DatasetOptions::Check(std::string* why) const {
   return true;
 }
 
+bool FrameSource::Skip() {
+  Frame f;
+  return Next(&f);
+}
+
 std::unique_ptr<FrameSource> OpenDataset(const DatasetOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw std::runtime_error("dataset options: " + why);

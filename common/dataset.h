@@ -41,6 +41,9 @@ class FrameSource {
   // are logged and skipped (counted in skipped()).
   virtual bool Next(Frame* frame) = 0;
   virtual void Rewind() = 0;
+  // Moves past the next listed frame without reading its image (a replay
+  // that is late). False at the end.
+  virtual bool Skip();
   virtual size_t skipped() const = 0;
   // All timestamps listed (for tracking-rate denominators).
   virtual const std::vector<Timestamp>& timestamps() const = 0;

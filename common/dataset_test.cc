@@ -212,13 +212,16 @@ TEST(DatasetFolder, ConfigCameraOverridesCalib) {
   WriteText(d / "other.yaml", "log_level: info\n");
   o.config_path = d / "other.yaml";
   EXPECT_EQ(OpenDataset(o)->camera().fx(), 50);
-  // A config that sets a size the images do not have: every frame skipped.
+  // A config that sets a size the images do not have: refused at open (it
+  // used to skip every frame and let the run "succeed" with nothing tracked).
   WriteText(d / "cam.yaml", "camera: {width: 640, height: 480, fx: 70, fy: 71, cx: 30, cy: 20}\n");
   o.config_path = d / "cam.yaml";
-  auto src2 = OpenDataset(o);
-  Frame f;
-  EXPECT_FALSE(src2->Next(&f));
-  EXPECT_EQ(src2->skipped(), 2u);
+  EXPECT_NE(ErrorOf(o).find("the camera is 640x480 but the images of"), std::string::npos) << ErrorOf(o);
+  EXPECT_NE(ErrorOf(o).find("are 64x48"), std::string::npos) << ErrorOf(o);
+  // Not one readable image: refused at open, naming the first.
+  for (int i = 0; i < 2; ++i) WriteText(d / ("images/" + std::to_string(i) + ".png"), "not a png");
+  WriteText(d / "cam.yaml", "camera: {fx: 70, fy: 71, cx: 30, cy: 20}\n");
+  EXPECT_NE(ErrorOf(o).find("no readable image among the 2 listed"), std::string::npos) << ErrorOf(o);
   // Invalid camera in the config: ConfigError naming the file.
   WriteText(d / "bad.yaml", "camera: {fx: 0}\n");
   o.config_path = d / "bad.yaml";

@@ -242,7 +242,18 @@ PinholeCameraOptions ResolveCamera(const DatasetOptions& options, const std::vec
     has_size = own(&o);
     source = options.path;
   }
-  if (!has_size) ProbeImageSize(images, &o);
+  // The images decide: a camera of another size would make the front skip
+  // every frame (or track with a wrong principal point), silently.
+  PinholeCameraOptions probed = o;
+  ProbeImageSize(images, &probed);  // throws when no image is readable
+  if (!has_size) {
+    o.width = probed.width;
+    o.height = probed.height;
+  } else if (probed.width != o.width || probed.height != o.height) {
+    throw std::runtime_error(source + ": the camera is " + std::to_string(o.width) + "x" + std::to_string(o.height) +
+                             " but the images of " + options.path + " are " + std::to_string(probed.width) + "x" +
+                             std::to_string(probed.height) + ": use the calibration of this image size");
+  }
   CheckCamera(o, source);
   spdlog::info("dataset {}: camera {}x{} fx {} fy {} cx {} cy {} k {} {} p {} {} k3 {} (from {})", options.path,
                o.width, o.height, o.fx, o.fy, o.cx, o.cy, o.k1, o.k2, o.p1, o.p2, o.k3, source);

@@ -86,6 +86,7 @@ class ListFrameSource : public FrameSource {
   size_t size() const override { return images_.size(); }
   bool Next(Frame* frame) override;
   void Rewind() override { next_ = 0; }
+  bool Skip() override { return next_ < images_.size() && ++next_ > 0; }
   size_t skipped() const override { return skipped_; }
   const std::vector<Timestamp>& timestamps() const override { return timestamps_; }
   const GroundTruth& ground_truth() const override { return gt_; }

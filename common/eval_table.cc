@@ -114,6 +114,9 @@ RunMetrics ParseRunMetrics(const std::string& json_text, const std::string& sour
                                                           : m.merged_rate;
   m.po_rmse = j.contains("postculled_ate_rmse") ? NumberOrNull(j, "postculled_ate_rmse", source)
                                                 : m.merged_rmse;
+  if (j.contains("warnings") && j["warnings"].is_array())
+    for (const auto& w : j["warnings"])
+      if (w.is_string()) m.warnings.push_back(w.get<std::string>());
   return m;
 }
 
@@ -132,6 +135,12 @@ std::string FormatEvalTableMarkdown(const std::vector<TableRow>& rows, const Eva
     }
     out += "\n";
   }
+  for (const auto& row : rows) {
+    for (size_t k = 0; k < row.runs.size(); ++k)
+      for (const std::string& w : row.runs[k].warnings)
+        out += "\nWARNING " + row.sequence + " run " + std::to_string(k + 1) + ": " + w;
+  }
+  if (out.back() != '\n') out += "\n";
   return out;
 }
 

@@ -15,6 +15,7 @@ struct RunMetrics {
   double front_rate = 0, merged_rate = 0, po_rate = 0;  // by time, in [0, 1]
   std::optional<double> front_rmse, merged_rmse, po_rmse;
   double front_frames = 0, merged_frames = 0, po_frames = 0;  // saved frames
+  std::vector<std::string> warnings;  // metrics.json "warnings" (absent in old files)
 };
 
 // Parses metrics.json text; throws std::runtime_error naming `source` and the
@@ -32,6 +33,7 @@ struct EvalTableOptions {
   bool Check(std::string* why = nullptr) const;
 };
 
+// The table, then one line per run that has warnings.
 std::string FormatEvalTableMarkdown(const std::vector<TableRow>& rows,
                                     const EvalTableOptions& options = {});
 std::string FormatEvalTableCsv(const std::vector<TableRow>& rows,

@@ -7,6 +7,7 @@
 namespace rumi {
 
 // Returns false (and keeps "info") when level is not a known spdlog level.
+// Calling it again (a test, a SIGHUP) only changes the level.
 bool SetupLogging(const std::string& process_name, const std::string& level = "info");
 
 }  // namespace rumi

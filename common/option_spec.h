@@ -27,6 +27,7 @@
 #include <functional>
 #include <limits>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -202,11 +203,12 @@ class OptionSpec {
       if (why) *why = key + "." + w;
       return false;
     };
-    for (OptionInfo info : sub.Describe(Sub())) {
-      info.key = key + "." + info.key;
-      nested_.push_back(info);
-    }
-    return Add({key, "", "", ""}, read, check, nullptr);
+    auto nested = [key, field, sp](const O& o) {
+      std::vector<OptionInfo> v = sp->Describe(o.*field);
+      for (OptionInfo& i : v) i.key = key + "." + i.key;
+      return v;
+    };
+    return Add({key, "", "", ""}, read, check, nullptr, nested);
   }
 
   // A member struct whose keys sit in this same section (no `key:` level).
@@ -215,8 +217,8 @@ class OptionSpec {
     const OptionSpec<Sub>* sp = &sub;
     auto read = [field, sp](ConfigSection& s, O* o) { sp->Read(s, &(o->*field)); };
     auto check = [field, sp](const O& o, std::string* why) { return sp->Check(o.*field, why); };
-    for (const OptionInfo& info : sub.Describe(Sub())) nested_.push_back(info);
-    return Add({"(" + sub.section() + ")", "", "", ""}, read, check, nullptr);
+    auto nested = [field, sp](const O& o) { return sp->Describe(o.*field); };
+    return Add({"(" + sub.section() + ")", "", "", ""}, read, check, nullptr, nested);
   }
 
   // Anything else (a pose, a list): its own reader and checker.
@@ -254,22 +256,25 @@ class OptionSpec {
     return CheckRules(o, why);
   }
 
-  // The declared options with o's values (defaults: Describe(O())).
+  // The declared options with o's values (defaults: Describe(O())), nested
+  // sections as "section.key".
   std::vector<OptionInfo> Describe(const O& o) const {
     std::vector<OptionInfo> out;
     for (const Entry& e : entries_) {
-      if (!e.show) continue;  // a section: listed through nested_
+      if (e.nested) {
+        for (OptionInfo& i : e.nested(o)) out.push_back(std::move(i));
+        continue;
+      }
       OptionInfo i = e.info;
       i.value = e.show(o);
       out.push_back(i);
     }
-    // Nested sections list their defaults (not o's): enough for the docs.
-    out.insert(out.end(), nested_.begin(), nested_.end());
     return out;
   }
+  // Every key, nested ones dotted ("orb.num_levels").
   std::vector<std::string> Keys() const {
     std::vector<std::string> k;
-    for (const Entry& e : entries_) k.push_back(e.info.key);
+    for (const OptionInfo& i : Describe(O())) k.push_back(i.key);
     return k;
   }
 
@@ -279,11 +284,13 @@ class OptionSpec {
     ReadFn read;
     CheckFn check;  // may be empty (no range)
     std::function<std::string(const O&)> show;  // empty for sections
+    std::function<std::vector<OptionInfo>(const O&)> nested;  // sections only
   };
-  OptionSpec& Add(OptionInfo info, ReadFn read, CheckFn check, std::function<std::string(const O&)> show) {
+  OptionSpec& Add(OptionInfo info, ReadFn read, CheckFn check, std::function<std::string(const O&)> show,
+                  std::function<std::vector<OptionInfo>(const O&)> nested = nullptr) {
     for (const Entry& e : entries_)
       if (e.info.key == info.key) throw std::logic_error("option '" + info.key + "' declared twice in " + section_);
-    entries_.push_back({std::move(info), std::move(read), std::move(check), std::move(show)});
+    entries_.push_back({std::move(info), std::move(read), std::move(check), std::move(show), std::move(nested)});
     return *this;
   }
   // An option whose value must pass `problem` ("" when fine): the reader
@@ -317,7 +324,6 @@ class OptionSpec {
   std::string section_;
   std::vector<Entry> entries_;
   std::vector<std::function<std::string(const O&)>> rules_;
-  std::vector<OptionInfo> nested_;
 };
 
 // Reads any options struct that declares a Spec().

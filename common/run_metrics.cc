@@ -8,6 +8,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/atomic_file.h"
+
 namespace rumi {
 namespace {
 
@@ -138,6 +140,13 @@ RunMetricsReport ComputeRunMetrics(const RunMetricsInput& in) {
     r.front_ms_p95 = PercentileNearestRank(in.front_ms, 95);
   }
   r.counts = in.counts;
+  if (in.front.empty())
+    r.warnings.push_back("the front tracked no frame (front.txt is empty): check the camera and the images");
+  if (in.merged.empty()) r.warnings.push_back("the merged map holds no frame (merged.txt is empty)");
+  if (in.counts.back_windows_failed > 0)
+    r.warnings.push_back(std::to_string(in.counts.back_windows_failed) + " of " +
+                         std::to_string(in.counts.back_windows) +
+                         " back window(s) failed (back/back_stats.json per_window: status and message)");
   return r;
 }
 
@@ -169,14 +178,13 @@ std::string FormatRunMetricsJson(const RunMetricsReport& r) {
   if (!r.front.ate_note.empty()) notes["front_ate"] = r.front.ate_note;
   if (!r.merged.ate_note.empty()) notes["merged_ate"] = r.merged.ate_note;
   if (!notes.empty()) j["notes"] = notes;
+  j["warnings"] = r.warnings;
   return j.dump(2) + "\n";
 }
 
 void WriteRunMetricsJson(const std::string& path, const RunMetricsReport& report) {
-  std::ofstream out(path);
-  if (!(out << FormatRunMetricsJson(report)) || !(out.flush())) {
-    throw std::runtime_error(path + ": cannot write");
-  }
+  std::string why;
+  if (!WriteFileAtomically(path, FormatRunMetricsJson(report), &why)) throw std::runtime_error(why);
 }
 
 bool ParseTrackingState(const std::string& text, TrackingState* state) {
@@ -262,6 +270,7 @@ void ReadBackStats(const std::string& path, RunCounts* c) {
   const nlohmann::json j = ReadJsonObject(path);
   c->back_windows = CountKey(j, "windows", path);
   c->back_seconds = NumberKey(j, "seconds", path);
+  if (j.contains("windows_failed")) c->back_windows_failed = CountKey(j, "windows_failed", path);
 }
 
 void ReadManagerStats(const std::string& path, RunCounts* c) {

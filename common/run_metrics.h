@@ -25,6 +25,7 @@ struct RunCounts {
   int64_t submaps_front = 0;
   int64_t submaps_back = 0;
   int64_t front_saved_frames = 0;       // keyframes the front alone kept
+  int64_t back_windows_failed = 0;      // built without a usable model (back_stats.json)
 };
 
 struct RunMetricsInput {
@@ -55,6 +56,9 @@ struct RunMetricsReport {
   TrajectoryMetrics front, merged;
   std::optional<double> front_ms_mean, front_ms_median, front_ms_p95;
   RunCounts counts;
+  // What makes the figures suspect (nothing tracked, failed back windows):
+  // metrics.json "warnings", printed by `rumi eval run` and `rumi eval table`.
+  std::vector<std::string> warnings;
 };
 
 // Throws std::runtime_error when frames has fewer than 2 entries or a list is

@@ -33,6 +33,14 @@ class SteadyReplayClock : public ReplayClock {
 struct FrameReplayOptions {
   double rate = 1.0;       // x recorded speed
   bool max = false;        // as fast as possible: no pacing, no skipping
+  // At the end, start again; timestamps go on increasing (one period = the
+  // sequence's duration + its median frame interval), so frame identity
+  // stays unique (rumid's soak runs, a dataset as an endless camera).
+  bool loop = false;
+  // Clock time (ReplayClock::NowNs) at which the first frame is due; 0: when
+  // it is read. A later start skips what is past without reading it: a
+  // restarted front joins the stream where it is, as with a live camera.
+  int64_t start_ns = 0;
   bool Check(std::string* why = nullptr) const;
 };
 // "max" or a positive number ("1", "0.5", "2.0"); false for anything else.
@@ -50,11 +58,13 @@ class FrameReplay {
 
   size_t delivered() const { return delivered_; }
   size_t skipped() const { return skipped_; }
+  int loops() const { return loops_; }        // times the sequence started again
+  Timestamp offset() const { return offset_; }  // added to the listed timestamps now
 
  private:
   int64_t DueNs(Timestamp t) const;
-  // Listed timestamp after t, or -1 (last frame).
-  Timestamp NextListed(Timestamp t) const;
+  // Stream time of the listed frame after index i, or -1 (none).
+  Timestamp NextStreamTime(size_t i) const;
 
   FrameSource* source_;
   FrameReplayOptions o_;
@@ -63,6 +73,10 @@ class FrameReplay {
   bool started_ = false;
   Timestamp t0_ = 0;
   int64_t wall0_ = 0;
+  size_t index_ = 0;      // listed frame the source reads next
+  Timestamp offset_ = 0;  // loops x period
+  Timestamp period_ = 0;
+  int loops_ = 0;
   size_t delivered_ = 0, skipped_ = 0;
 };
 

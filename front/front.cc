@@ -29,8 +29,9 @@ double MsSince(std::chrono::steady_clock::time_point t0) {
 
 }  // namespace
 
-Front::Front(const FrontOptions& options, const PinholeCamera& camera)
+Front::Front(const FrontOptions& options, const PinholeCamera& camera, int64_t first_submap_id)
     : options_(options), camera_(camera), hier_(options.hier) {
+  first_submap_id_ = submap_id_ = first_submap_id;
   std::string why;
   if (!options_.Check(&why)) throw std::invalid_argument("front options: " + why);
   const PinholeCameraOptions& c = camera_.options();
@@ -271,9 +272,10 @@ void Front::Initialize() {
     idx.push_back({static_cast<int>(i), m12[i]});
   }
   TwoViewOptions tvo;
-  const int min_points = submap_id_ > 0 ? options_.reinit_min_triangulated : options_.init_min_triangulated;
+  const bool reinit = submap_id_ > first_submap_id_;  // a first map of this process can wait; a re-init cannot
+  const int min_points = reinit ? options_.reinit_min_triangulated : options_.init_min_triangulated;
   tvo.min_triangulated = min_points;
-  tvo.min_parallax_deg = submap_id_ > 0 ? options_.reinit_min_parallax_deg : options_.init_min_parallax_deg;
+  tvo.min_parallax_deg = reinit ? options_.reinit_min_parallax_deg : options_.init_min_parallax_deg;
   TwoViewResult r;
   if (!ReconstructTwoView(p1, p2, cam_.K(), tvo, &r)) return;
 

@@ -51,7 +51,8 @@ class Front {
   // must be cheap and non-blocking.
   using FrameCallback = std::function<void(const FrameRecord&, const cv::Mat&)>;
 
-  Front(const FrontOptions& options, const PinholeCamera& camera);
+  // Submap ids count from first_submap_id (rumid: unique across restarts).
+  Front(const FrontOptions& options, const PinholeCamera& camera, int64_t first_submap_id = 0);
   ~Front();
   Front(const Front&) = delete;
   Front& operator=(const Front&) = delete;
@@ -112,6 +113,7 @@ class Front {
 
   std::unique_ptr<Map> map_;
   std::unique_ptr<LocalMapper> mapper_;
+  int64_t first_submap_id_ = 0;
   int64_t submap_id_ = 0;
   TrackingState state_ = TrackingState::kInitializing;
   HierarchicalState hier_;

@@ -1,5 +1,9 @@
-// rumi-front: runs the realtime front end on a dataset and writes the
-// trajectories (TUM), per-frame states and timings.
+// rumi-front: the realtime front end.
+//   rumi-front --instance ID --out DIR [--config FILE] [--dataset KIND PATH] ...
+// is the process of `rumi eval run` and rumid (RunFront, front/front_run.h):
+// the configured source (or the dataset), windows and submaps over shared
+// memory. Without --instance it runs offline on a dataset and writes the
+// trajectories (TUM), per-frame states and timings:
 //   rumi-front --dataset tum|euroc|icl|kitti|folder PATH [--config FILE] [--out DIR]
 //              [--bench] [--sync] [--no-pace] [--max-frames N] [--loop N] [--log LEVEL]
 #include <CLI/CLI.hpp>
@@ -15,13 +19,15 @@
 #include <thread>
 #include <chrono>
 
-#include "common/config.h"
+#include "common/process/exit_codes.h"
+#include "configs/process_setup.h"
 #include "common/dataset.h"
 #include "common/logging.h"
 #include "common/trajectory.h"
 #include "common/trajectory_eval.h"
 #include "front/front.h"
-#include "front/front_pipeline.h"
+#include "front/front_run.h"
+#include "front/frame_replay.h"
 
 namespace rumi {
 namespace {
@@ -50,13 +56,13 @@ Trajectory TrackedPoses(const Submap& s) {
 }
 
 int Main(int argc, char** argv) {
-  CLI::App app{"rumi-front: realtime monocular front end on a dataset"};
-  std::string kind_name, path, config_path, out_dir, log_level = "info";
+  CLI::App app{"rumi-front: realtime monocular front end"};
+  std::string kind_name, path, config_path, out_dir, log_level;
   bool bench = false;
   int max_frames = 0, loop = 1;
-  app.add_option("--dataset", kind_name, "dataset kind: tum|euroc|icl|kitti|folder")->required();
-  app.add_option("path", path, "dataset folder")->required();
-  app.add_option("--config", config_path, "rumi YAML config (section front:, camera:)");
+  app.add_option("--dataset", kind_name, "dataset kind: tum|euroc|icl|kitti|folder (overrides source:)");
+  app.add_option("path", path, "dataset folder (with --dataset)");
+  app.add_option("--config", config_path, "rumi YAML config (every section is checked)");
   app.add_option("--out", out_dir, "output folder (trajectories, states, timings)");
   app.add_flag("--bench", bench, "print median / p95 ms per frame");
   app.add_option("--max-frames", max_frames, "stop after N frames (0: all)");
@@ -64,55 +70,82 @@ int Main(int argc, char** argv) {
                  "play the sequence N times, forward and backward in turn, with continuing timestamps "
                  "(long-run memory check; prints memory per pass)")
       ->check(CLI::Range(1, 100000));
-  app.add_option("--log", log_level, "log level");
+  app.add_option("--log,--log-level", log_level, "trace|debug|info|warn|error|off (overrides the config)");
   bool sync = false, no_pace = false;
   app.add_flag("--no-pace", no_pace, "feed frames as fast as possible instead of at capture rate");
   app.add_flag("--sync", sync, "run local mapping inline (deterministic; not realtime)");
-  // Pipeline mode (docs/eval.md): replay, ship windows and submaps over shm.
-  std::string instance, rate = "1.0", odometry_path;
-  double resend_interval_s = 2.0, wait_for_consumers_s = 30.0;
+  // Process mode (docs/eval.md): the configured source (or --dataset),
+  // windows and submaps over shared memory.
+  std::string instance, rate, odometry_path;
+  double resend_interval_s = -1, wait_for_consumers_s = -1;
+  int64_t first_submap_id = 0, replay_start_ns = 0;
+  bool daemon = false;
   app.add_option("--instance", instance, "ipc instance: run as the pipeline's front (docs/eval.md); needs --out");
   app.add_option("--odometry", odometry_path,
                  "TUM file of the robot's pose source (body -> odometry world; front.odometry_T_bc gives the "
                  "camera in the body), sent with the submaps so the manager can join submaps vision cannot");
-  app.add_option("--rate", rate, "with --instance: replay at R x the recorded rate, or max");
-  app.add_option("--resend-interval", resend_interval_s,
-                 "with --instance: seconds between resends of the current submap");
-  app.add_option("--wait-for-consumers", wait_for_consumers_s,
-                 "with --instance: bound on the final wait for back/manager");
+  app.add_option("--rate", rate, "with --instance: replay at R x the recorded rate, or max (overrides source.rate)");
+  app.add_option("--resend-interval", resend_interval_s, "overrides publisher.resend_interval_s");
+  app.add_option("--wait-for-consumers", wait_for_consumers_s, "overrides publisher.wait_for_consumers_s");
+  app.add_option("--first-submap-id", first_submap_id, "rumid: submap and window ids start here")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--replay-start-ns", replay_start_ns,
+                 "rumid: steady-clock time the dataset's first frame was due (a restarted front joins there)");
+  app.add_flag("--daemon", daemon, "rumid: append to the frame files, leave the channels for the next consumer");
   CLI11_PARSE(app, argc, argv);
+  ProcessSetup setup("front", config_path, log_level);
+  if (!setup.Load()) return kExitBadInput;
+  const RumiConfig& config = setup.config();
   if (!instance.empty()) {
-    FrontPipelineArgs pa;
-    pa.dataset_kind = kind_name;
-    pa.dataset_path = path;
-    pa.config_path = config_path;
-    pa.out_dir = out_dir;
-    pa.instance = instance;
-    pa.rate = rate;
-    pa.odometry_path = odometry_path;
-    pa.max_frames = max_frames;
-    pa.resend_interval_s = resend_interval_s;
-    pa.wait_for_consumers_s = wait_for_consumers_s;
-    if (app.count("--log")) pa.log_level = log_level;
-    return RunFrontPipeline(pa);
+    FrontRunOptions o;
+    o.stream.source = config.source;
+    if (!kind_name.empty()) {
+      o.stream.source.kind = "dataset";
+      o.stream.source.dataset = kind_name;
+      o.stream.source.path = path;
+    }
+    if (!odometry_path.empty()) o.stream.source.odometry = odometry_path;
+    if (!rate.empty()) {
+      FrameReplayOptions r;
+      if (!ParseReplayRate(rate, &r)) {
+        spdlog::error("--rate '{}': expected a positive number or max", rate);
+        return kExitBadInput;
+      }
+      o.stream.source.rate = r.max ? 0.0 : r.rate;
+    }
+    o.stream.config_path = config_path;
+    if (config.has_camera) o.stream.camera = &config.camera;
+    o.stream.start_ns = replay_start_ns;
+    o.front = config.front;
+    if (sync) o.front.local_mapping_thread = false;
+    o.sampler = config.sampler;
+    o.publisher = config.publisher;
+    o.publisher.out_dir = out_dir;
+    o.publisher.append_files = daemon;
+    o.publisher.keep_segments = daemon;
+    if (resend_interval_s >= 0) o.publisher.resend_interval_s = resend_interval_s;
+    if (wait_for_consumers_s >= 0) o.publisher.wait_for_consumers_s = wait_for_consumers_s;
+    o.ipc = config.ipc;
+    o.ipc.instance = instance;
+    std::string why;
+    if (!o.ipc.Check(&why) || !o.publisher.Check(&why)) {
+      spdlog::error("{}", why);
+      return kExitBadInput;
+    }
+    o.first_submap_id = first_submap_id;
+    o.max_frames = max_frames;
+    return RunFront(o, setup.stop());
   }
-  SetupLogging("front", log_level);
   cv::setNumThreads(1);  // 2 shared cores: OpenCV threads would fight tracking + mapping
 
   DatasetOptions dopt;
-  if (!ParseDatasetKind(kind_name, &dopt.kind)) {
-    std::cerr << "rumi-front: unknown dataset kind '" << kind_name << "'\n";
-    return 2;
+  if (!ParseDatasetKind(kind_name, &dopt.kind) || path.empty()) {
+    std::cerr << "rumi-front: give --dataset KIND PATH (or --instance to run the configured source)\n";
+    return kExitBadInput;
   }
   dopt.path = path;
   dopt.config_path = config_path;
-  FrontOptions fopt;
-  if (!config_path.empty()) {
-    ConfigSection root = LoadConfigFile(config_path);
-    ConfigSection s = root.Child("front");
-    ReadOptions(s, &fopt);
-    s.Finish();
-  }
+  FrontOptions fopt = config.front;
   if (sync) fopt.local_mapping_thread = false;
   auto source = OpenDataset(dopt);
   Front front(fopt, source->camera());

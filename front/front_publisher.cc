@@ -232,9 +232,9 @@ void FrontPublisher::OnSkipped(Timestamp t) {
   Handoff(false);
 }
 
-void FrontPublisher::SetSourceStatus(const std::string& status) {
+void FrontPublisher::SetSourceStatus(std::function<std::string()> status) {
   std::lock_guard<std::mutex> l(source_mutex_);
-  source_status_ = status;
+  source_status_ = std::move(status);
 }
 
 void FrontPublisher::Report() {
@@ -248,7 +248,7 @@ void FrontPublisher::Report() {
   }
   {
     std::lock_guard<std::mutex> l(source_mutex_);
-    j["source"] = source_status_;
+    if (source_status_) j["source"] = source_status_();
   }
   j["process"] = "front";
   j["frames"] = seen_.frames;

@@ -107,8 +107,9 @@ class FrontPublisher {
   bool Finish(const std::vector<Submap>& finished, bool stopping = false);
 
   FrontPublisherStats stats() const;
-  // Any thread (the frame source, while it reconnects): shown in the status.
-  void SetSourceStatus(const std::string& status);
+  // Polled by the publisher thread for its status reports (the frame
+  // source's state: streaming, reconnecting, ...). Must be thread-safe.
+  void SetSourceStatus(std::function<std::string()> status);
 
  private:
   struct FrameLine {
@@ -189,7 +190,7 @@ class FrontPublisher {
   } seen_;
   Notifier notifier_;
   std::mutex source_mutex_;
-  std::string source_status_;
+  std::function<std::string()> source_status_;
   std::thread thread_;
 };
 

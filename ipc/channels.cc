@@ -98,9 +98,9 @@ PopStatus WindowReceiver::PeekDecoded(ImageWindow* w, bool in_place, double time
   }
 }
 
-PopStatus WindowReceiver::Receive(ImageWindow* w, double timeout_s) {
+PopStatus WindowReceiver::Receive(ImageWindow* w, double timeout_s, bool hold) {
   const PopStatus st = PeekDecoded(w, false, timeout_s);
-  if (st == PopStatus::kOk) ring_.Release();
+  if (st == PopStatus::kOk && !hold) ring_.Release();
   return st;
 }
 
@@ -119,17 +119,23 @@ PushStatus SubmapSender::Send(const Submap& s) {
 SubmapReceiver::SubmapReceiver(const IpcOptions& o, SubmapSource source)
     : ring_(SegmentName(o.instance, SubmapChannel(source)), SubmapLayout(o)) {}
 
-PopStatus SubmapReceiver::Receive(Submap* s, double timeout_s) {
+PopStatus SubmapReceiver::Receive(Submap* s, double timeout_s, bool hold) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   for (;;) {
     const double left =
         std::max(0.0, std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count());
-    bool ok = false;
+    const uint8_t* d = nullptr;
+    size_t n = 0;
+    const PopStatus st = ring_.Peek(&d, &n, left);
+    if (st != PopStatus::kOk) return st;
     std::string err;
-    const PopStatus st = ring_.Pop([&](const uint8_t* d, size_t n) { ok = DecodeSubmap(d, n, s, &err); }, left);
-    if (st != PopStatus::kOk || ok) return st;
+    if (DecodeSubmap(d, n, s, &err)) {
+      if (!hold) ring_.Release();
+      return st;
+    }
     ++decode_errors_;
     spdlog::error("ipc {}: dropping undecodable submap: {}", ring_.name(), err);
+    ring_.Release();
   }
 }
 

@@ -50,8 +50,11 @@ class WindowReceiver {
  public:
   explicit WindowReceiver(const IpcOptions& o);
   // Deep-copied window. kOk, kEmpty after timeout_s, kNotConnected, kIncompatible.
-  // A record that fails to decode is logged, counted and skipped.
-  PopStatus Receive(ImageWindow* w, double timeout_s = 0.0);
+  // A record that fails to decode is logged, counted and skipped. With
+  // `hold`, the message stays in its slot until Release(): a consumer that
+  // dies before it gets it again when it attaches anew.
+  PopStatus Receive(ImageWindow* w, double timeout_s = 0.0, bool hold = false);
+  void Release() { ring_.Release(); }
   // Zero-copy: f(const ImageWindow&) sees images pointing into the slot; they
   // are valid only during the call.
   template <typename F>
@@ -86,7 +89,9 @@ class SubmapSender {
 class SubmapReceiver {
  public:
   SubmapReceiver(const IpcOptions& o, SubmapSource source);
-  PopStatus Receive(Submap* s, double timeout_s = 0.0);
+  // With `hold`: the message stays in its slot until Release() (see WindowReceiver).
+  PopStatus Receive(Submap* s, double timeout_s = 0.0, bool hold = false);
+  void Release() { ring_.Release(); }
   uint64_t decode_errors() const { return decode_errors_; }
   RingConsumer& ring() { return ring_; }
 

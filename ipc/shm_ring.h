@@ -27,7 +27,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "ipc/process_info.h"
+#include "common/process/process_info.h"
 
 namespace rumi {
 

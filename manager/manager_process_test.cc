@@ -16,6 +16,7 @@
 
 #include "common/timestamp.h"
 #include "ipc/channels.h"
+#include "common/process/exit_codes.h"
 #include "manager/test_scenario.h"
 
 namespace rumi {
@@ -189,7 +190,9 @@ TEST_F(ManagerProcess, MergesWhatTheProducersSendAndReloadsTheMap) {
   EXPECT_FALSE(fs::exists(out / "map.rumi.bad"));
 }
 
-TEST_F(ManagerProcess, SigtermSavesWhatArrivedAndExitsZero) {
+// Stopped while a producer still runs: what arrived is saved, and the exit
+// code says the work was not done (it used to be 0).
+TEST_F(ManagerProcess, SigtermSavesWhatArrivedAndSaysSo) {
   const auto s = testing::MakeScenario();
   const std::string log = (dir_ / "manager.log").string();
   const pid_t pid = Start(Args("0"), log);  // would wait forever for the back
@@ -202,7 +205,7 @@ TEST_F(ManagerProcess, SigtermSavesWhatArrivedAndExitsZero) {
   for (int i = 0; i < 500 && front.ring().Stats().popped == 0; ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   ::kill(pid, SIGTERM);
-  ASSERT_EQ(WaitExit(pid, 20), 0) << ReadAll(log);
+  ASSERT_EQ(WaitExit(pid, 20), kExitStopped) << ReadAll(log);
   const fs::path out = dir_ / "out";
   EXPECT_EQ(TumTimes((out / "merged.txt").string()).size(), 41u) << ReadAll(log);
   const auto j = nlohmann::json::parse(ReadAll((out / "manager_stats.json").string()));
@@ -286,7 +289,8 @@ TEST_F(ManagerProcess, RefusesAConfigWithAnUnknownKey) {
   const std::string text = ReadAll(log);
   EXPECT_NE(text.find("bad.yaml"), std::string::npos) << text;
   EXPECT_NE(text.find("manager.no_such_key"), std::string::npos) << text;
-  EXPECT_EQ(text.find("front.whatever"), std::string::npos) << text;
+  // Every section is checked, the other processes' too.
+  EXPECT_NE(text.find("front.whatever"), std::string::npos) << text;
 }
 
 }  // namespace

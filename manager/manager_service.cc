@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -17,6 +18,7 @@
 #include "common/timestamp.h"
 #include "manager/odometry_merge.h"
 #include "manager/global_trajectory.h"
+#include "ipc/submap_codec.h"
 #include "manager/map_file.h"
 
 namespace rumi {
@@ -60,6 +62,22 @@ nlohmann::json ReportJson(const MergeReport& r) {
 std::string ManagerServiceOptions::MapPath() const {
   return map_path.empty() ? (fs::path(out_dir) / "map.rumi").string() : map_path;
 }
+
+std::string ManagerServiceOptions::JournalDir() const { return MapPath() + ".received"; }
+
+namespace {
+std::string JournalPath(const std::string& dir, const SubmapKey& k) {
+  return (fs::path(dir) / ((k.source == SubmapSource::kBack ? "back_" : "front_") + std::to_string(k.id) + ".rsub"))
+      .string();
+}
+
+std::string WallClockNow() {
+  const std::time_t t = std::time(nullptr);
+  char buf[32];
+  std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%S%z", std::localtime(&t));
+  return buf;
+}
+}  // namespace
 
 GlobalMap CopyWithout(const GlobalMap& map, const std::vector<SubmapKey>& drop) {
   GlobalMap out;
@@ -121,6 +139,33 @@ bool ManagerService::Start(std::string* why) {
     } else if (!MoveAside(raw_path, err, why)) {
       return false;
     }
+  }
+  // Submaps received after the last raw save (a manager killed in between):
+  // newer than what the raw file holds.
+  if (options_.journal) {
+    fs::create_directories(options_.JournalDir(), ec);
+    if (ec) {
+      if (why) *why = "cannot create " + options_.JournalDir() + ": " + ec.message();
+      return false;
+    }
+    for (const auto& e : fs::directory_iterator(options_.JournalDir(), ec)) {
+      if (e.path().extension() != ".rsub") continue;
+      std::vector<uint8_t> bytes;
+      Submap s;
+      if (!ReadFileBytes(e.path().string(), &bytes, &err) || !DecodeSubmap(bytes.data(), bytes.size(), &s, &err) ||
+          !ValidateSubmap(s, &err)) {
+        spdlog::error("manager: journal entry {} does not load ({}); moved aside", e.path().string(), err);
+        fs::rename(e.path(), e.path().string() + ".bad", ec);
+        continue;
+      }
+      const SubmapKey key{s.source, s.id};
+      received_[key] = std::move(s);
+      ++stats_.journal_reloaded;
+      dirty_ = raw_dirty_ = true;
+    }
+    if (stats_.journal_reloaded > 0)
+      spdlog::info("manager: reloaded {} submap(s) received after the last save from {}", stats_.journal_reloaded,
+                   options_.JournalDir());
   }
   // Until the first rebuild: keyframes received (before culling) and kept.
   for (const auto& kv : received_) stats_.saved_frames += int(kv.second.keyframes.size());
@@ -190,6 +235,11 @@ bool ManagerService::AddSubmap(Submap s) {
     ++stats_.invalid_submaps;
     spdlog::error("manager: refusing submap {}", why);
     return false;
+  }
+  if (options_.journal &&
+      !WriteFileAtomically(JournalPath(options_.JournalDir(), key), EncodeSubmap(s), &why)) {
+    // Not lost yet: it is kept in memory and in the next raw save.
+    spdlog::error("manager: cannot journal {}: {}", ToString(key), why);
   }
   auto it = received_.find(key);
   if (it != received_.end()) {
@@ -301,6 +351,8 @@ bool ManagerService::WriteStats(std::string* why) const {
   j["merges_replayed"] = stats_.merges_replayed;
   j["base_submaps"] = stats_.base_submaps;
   j["last_rebuild_seconds"] = stats_.last_rebuild_seconds;
+  j["journal_reloaded"] = stats_.journal_reloaded;
+  j["last_save"] = stats_.last_save;
   j["points_before_culling"] = stats_.culling.points_before;
   j["points_after_culling"] = stats_.culling.points_after;
   j["culled_back"] = stats_.culling.culled_back;
@@ -323,6 +375,7 @@ bool ManagerService::WriteStats(std::string* why) const {
 }
 
 bool ManagerService::WriteOutputs(std::string* why) {
+  unsaved_ = true;  // until every file below is written
   std::string err;
   if (raw_dirty_) {
     GlobalMap raw;
@@ -332,150 +385,19 @@ bool ManagerService::WriteOutputs(std::string* why) {
       return false;
     }
     raw_dirty_ = false;
+    if (options_.journal) {  // everything in it is in the raw file now
+      std::error_code ec;
+      for (const auto& kv : received_) fs::remove(JournalPath(options_.JournalDir(), kv.first), ec);
+    }
   }
   if (!SaveGlobalMap(map_, options_.MapPath(), &err)) {
     if (why) *why = err;
     return false;
   }
-  return WriteTrajectories(why) && WriteStats(why);
-}
-
-// ---------------- the consumer loop ----------------
-
-namespace {
-
-struct Channel {
-  enum class End { kNo, kClosed, kDied, kNeverAppeared };
-  const char* name;
-  SubmapSource source;
-  SubmapReceiver rx;
-  bool seen = false;  // a producer's segment was attached at least once
-  End end = End::kNo;  // finished (and drained) and why; a producer that comes back undoes it
-  uint64_t decode_errors = 0;
-  std::string last_error;
-  std::chrono::steady_clock::time_point last_liveness_check{};
-  Channel(const char* n, const IpcOptions& o, SubmapSource s) : name(n), source(s), rx(o, s) {}
-  bool ended() const { return end != End::kNo; }
-};
-
-// Polls one channel once. Returns true when a message arrived.
-bool PollChannel(Channel* c, ManagerService* service, double wait_for_producers_s,
-                 std::chrono::steady_clock::time_point start) {
-  const uint64_t closed_before = c->rx.ring().closed_segments();
-  Submap s;
-  const PopStatus st = c->rx.Receive(&s, 0.0);
-  if (c->rx.decode_errors() != c->decode_errors) {
-    service->CountDecodeErrors(int64_t(c->rx.decode_errors() - c->decode_errors));
-    c->decode_errors = c->rx.decode_errors();
-  }
-  if (st == PopStatus::kIncompatible && c->rx.ring().last_error() != c->last_error) {
-    c->last_error = c->rx.ring().last_error();
-    spdlog::error("manager: {} channel: {}", c->name, c->last_error);
-  }
-  const bool connected = c->rx.ring().connected();
-  const bool closed = c->rx.ring().closed_segments() != closed_before;
-  if (connected && (!c->seen || c->end == Channel::End::kClosed || c->end == Channel::End::kNeverAppeared)) {
-    spdlog::info("manager: {} producer attached ({})", c->name, c->rx.ring().name());
-    c->end = Channel::End::kNo;
-  }
-  c->seen |= connected || closed;
-  if (st == PopStatus::kOk) {
-    if (c->end == Channel::End::kDied) spdlog::info("manager: {} producer is back", c->name);
-    c->end = Channel::End::kNo;
-    if (s.source != c->source) {
-      spdlog::warn("manager: {} channel delivered a submap marked {}; taken as it is marked", c->name,
-                   s.source == SubmapSource::kFront ? "front" : "back");
-    }
-    service->AddSubmap(std::move(s));  // refused ones are logged and counted there
-    return true;
-  }
-  if (closed && !connected) {
-    // Left a closed, drained segment (and no new producer's segment yet).
-    spdlog::info("manager: {} producer closed its channel (drained)", c->name);
-    c->end = Channel::End::kClosed;
-  } else if (connected && st == PopStatus::kEmpty && SecondsSince(c->last_liveness_check) > 0.5) {
-    // A crashed producer leaves its segment: dead pid + empty ring = finished,
-    // until a restarted producer takes the segment over.
-    c->last_liveness_check = std::chrono::steady_clock::now();
-    const RingStats rs = c->rx.ring().Stats();
-    const bool dead = rs.producer_pid != 0 && !rs.producer_alive && !rs.closed && rs.head == rs.tail;
-    if (dead && c->end != Channel::End::kDied) {
-      spdlog::warn("manager: {} producer (pid {}) died without closing its channel; taking it as finished",
-                   c->name, rs.producer_pid);
-      c->end = Channel::End::kDied;
-    } else if (!dead && c->end == Channel::End::kDied) {
-      spdlog::info("manager: {} producer is back (pid {})", c->name, rs.producer_pid);
-      c->end = Channel::End::kNo;
-    }
-  } else if (!c->seen && !c->ended() && wait_for_producers_s > 0 && SecondsSince(start) > wait_for_producers_s) {
-    spdlog::warn("manager: no {} producer appeared within {} s; going on without it", c->name,
-                 wait_for_producers_s);
-    c->end = Channel::End::kNeverAppeared;
-  }
-  return false;
-}
-
-}  // namespace
-
-bool RebuildDue(const ManagerRunOptions& run, double since_last_s, double last_rebuild_s) {
-  const double duty = std::clamp(run.rebuild_max_duty, 1e-3, 1.0);
-  return since_last_s >= std::max(run.rebuild_interval_s, last_rebuild_s * (1.0 / duty - 1.0));
-}
-
-ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service, const std::atomic<bool>* stop) {
-  const auto start = std::chrono::steady_clock::now();
-  Channel front("front", run.ipc, SubmapSource::kFront);
-  Channel back("back", run.ipc, SubmapSource::kBack);
-  auto last_rebuild = start - std::chrono::hours(1);
-  ManagerExit result = ManagerExit::kProducersDone;
-  std::string why;
-  for (;;) {
-    if (stop && stop->load()) {
-      spdlog::info("manager: stop requested");
-      result = ManagerExit::kStopped;
-      break;
-    }
-    bool got = false;
-    // Finished channels are polled too: a restarted producer is read again.
-    for (Channel* c : {&front, &back}) got |= PollChannel(c, service, run.wait_for_producers_s, start);
-    if (front.ended() && back.ended()) break;
-    if (service->dirty() && !got &&
-        RebuildDue(run, SecondsSince(last_rebuild), service->stats().last_rebuild_seconds)) {
-      // Rebuild once the burst is read (got == false: the rings are empty now).
-      if (!service->Rebuild(&why)) {
-        spdlog::error("manager: {}", why);
-        return ManagerExit::kError;
-      }
-      last_rebuild = std::chrono::steady_clock::now();
-    }
-    if (!got) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  if (!front.seen && !back.seen && result == ManagerExit::kProducersDone) result = ManagerExit::kNoProducer;
-  if (service->dirty() && !service->Rebuild(&why)) {
-    spdlog::error("manager: {}", why);
-    return ManagerExit::kError;
-  }
-  if (!service->WriteOutputs(&why)) {
-    spdlog::error("manager: {}", why);
-    return ManagerExit::kError;
-  }
-  const ManagerStats& st = service->stats();
-  spdlog::info("manager: done: {} front + {} back submaps ({} messages, {} resends, {} malformed), {} merges, "
-               "{} components, {} frames in merged.txt, keyframes {} -> {}",
-               st.submaps_front, st.submaps_back, st.messages_front + st.messages_back, st.resends,
-               st.decode_errors, st.merges, st.components, st.trajectory_frames, st.saved_frames,
-               st.saved_frames_postculled);
-  return result;
-}
-
-void ReadManagerProcessConfig(ConfigSection& root, ManagerProcessConfig* c) {
-  ConfigSection m = root.Child("manager");
-  ReadOptions(m, &c->manager);
-  ConfigSection i = root.Child("ipc");
-  ReadOptions(i, &c->ipc);
-  root.Read("log_level", &c->log_level);
-  for (const char* other : {"front", "sampler", "back", "camera"}) root.Ignore(other);
-  root.Finish();
+  stats_.last_save = WallClockNow();
+  if (!WriteTrajectories(why) || !WriteStats(why)) return false;
+  unsaved_ = false;
+  return true;
 }
 
 }  // namespace rumi

@@ -11,16 +11,14 @@
 // frame and runs MergeAll from scratch, then culls. Simple and correct for
 // resends. A MergeMemo replays the merges whose submaps did not change, so a
 // rebuild computes only those of new or grown submaps; rebuilds are still
-// rate-limited by the caller (RunManagerLoop).
+// rate-limited by the caller (RunManagerLoop, manager/manager_run.h).
 #include <atomic>
 #include <cstdint>
 #include <map>
 #include <string>
 #include <vector>
 
-#include "common/config.h"
 #include "common/submap.h"
-#include "ipc/channels.h"
 #include "manager/global_map.h"
 #include "manager/manager_options.h"
 #include "manager/merge.h"
@@ -35,7 +33,12 @@ struct ManagerServiceOptions {
   std::string out_dir;   // created when missing
   std::string map_path;  // empty: <out_dir>/map.rumi
   bool post_culling = true;
+  // rumid: every submap received is written to <map>.received/ before the
+  // ring slot is let go, so a manager killed between two saves loses none;
+  // a restarted manager reloads them. Cleared after each raw save.
+  bool journal = false;
   std::string MapPath() const;
+  std::string JournalDir() const;
 };
 
 struct ManagerStats {
@@ -44,6 +47,8 @@ struct ManagerStats {
   int64_t decode_errors = 0;                      // malformed messages dropped
   int64_t invalid_submaps = 0;                    // decoded but inconsistent: refused
   int64_t rebuilds = 0;
+  int64_t journal_reloaded = 0;  // submaps reloaded from the journal at start
+  std::string last_save;         // wall-clock time of the last map save (ISO 8601), "" before it
   int merges = 0;  // successful merges that built the current map (submaps - components)
   int merge_attempts = 0;  // MergePair calls of the last rebuild
   int merges_replayed = 0;  // of those, taken from the MergeMemo (submaps unchanged)
@@ -68,9 +73,13 @@ class ManagerService {
 
   // Keeps s as the latest version of (source, id) and marks the state dirty.
   // A submap that fails ValidateSubmap is logged, counted and refused (false).
+  // With the journal, s is on disk when this returns true.
   bool AddSubmap(Submap s);
   void CountDecodeErrors(int64_t n) { stats_.decode_errors += n; }
   bool dirty() const { return dirty_; }
+  // The last WriteOutputs failed (a full disk): the files on disk are the
+  // previous ones, intact; saving again is due.
+  bool unsaved() const { return unsaved_; }
 
   // Rebuilds the global map from the base and all received submaps, culls,
   // then writes the outputs. False (with why) when an output cannot be written.
@@ -98,6 +107,7 @@ class ManagerService {
   GlobalMap map_;  // current product
   bool dirty_ = false;
   bool raw_dirty_ = false;  // received_ changed since the raw file was written
+  bool unsaved_ = false;
   int written_components_ = 0;  // merged_<k>.txt files present
   ManagerStats stats_;
 };
@@ -112,45 +122,5 @@ bool ValidateSubmap(const Submap& s, std::string* why);
 // in one component stay in one (their Sim(3)s already share a global frame),
 // fused links to dropped submaps go.
 GlobalMap CopyWithout(const GlobalMap& map, const std::vector<SubmapKey>& drop);
-
-struct ManagerRunOptions {
-  IpcOptions ipc;
-  // A channel whose producer has not appeared after this long counts as
-  // finished (0: wait forever).
-  double wait_for_producers_s = 0;
-  // At most one rebuild per this many seconds while submaps keep arriving;
-  // the final one runs at exit regardless.
-  double rebuild_interval_s = 1.0;
-  // A rebuild costs more as the map collects submaps (culling, and merges
-  // of changed submaps: merge_benchmark BM_RebuildSession). After a rebuild
-  // of T s the next one waits at least T (1 / duty - 1) s (0.5: as long
-  // again), so rebuilding takes at most this share of the time: the realtime
-  // front shares the cores.
-  double rebuild_max_duty = 0.5;
-};
-
-// Whether a rebuild may start `since_last_s` after the last one ended, which
-// took `last_rebuild_s`: not before rebuild_interval_s, and not before
-// last_rebuild_s * (1 / rebuild_max_duty - 1).
-bool RebuildDue(const ManagerRunOptions& run, double since_last_s, double last_rebuild_s);
-
-// Result of RunManagerLoop.
-enum class ManagerExit { kProducersDone, kStopped, kNoProducer, kError };
-
-// Consumes the instance's front and back submap channels until both
-// producers closed them (clean exit; or died, or never appeared within
-// wait_for_producers_s) and the rings are drained, or *stop is set (signal).
-// Rebuilds as submaps arrive (rate-limited) and once more at the end.
-ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service, const std::atomic<bool>* stop);
-
-// The whole process configuration read from one YAML file: `manager:`,
-// `ipc:`, `log_level`; sections of the other processes (front, sampler, back,
-// camera) are tolerated unread. Unknown keys throw ConfigError (Finish).
-struct ManagerProcessConfig {
-  ManagerOptions manager;
-  IpcOptions ipc;
-  std::string log_level = "info";
-};
-void ReadManagerProcessConfig(ConfigSection& root, ManagerProcessConfig* c);
 
 }  // namespace rumi

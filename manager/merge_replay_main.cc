@@ -11,7 +11,7 @@
 
 #include <iostream>
 
-#include "common/config.h"
+#include "configs/rumi_config.h"
 #include "common/logging.h"
 #include "manager/global_trajectory.h"
 #include "manager/manager_service.h"
@@ -40,12 +40,9 @@ int Main(int argc, char** argv) {
                  "first drop back-submap points seen by fewer keyframes (what back.min_point_observations does)");
   CLI11_PARSE(app, argc, argv);
 
-  ManagerProcessConfig config;
+  RumiConfig config;
   try {
-    if (!config_path.empty()) {
-      ConfigSection root = LoadConfigFile(config_path);
-      ReadManagerProcessConfig(root, &config);
-    }
+    config = LoadRumiConfig(config_path);
   } catch (const ConfigError& e) {
     std::cerr << "rumi-merge-replay: " << e.what() << "\n";
     return 2;

@@ -1,7 +1,20 @@
 #pragma once
 // The three-submap scenario shared by the manager's tests (header-only, test
 // code): front A (frames 0-40), back (30-80), front B (70-110), each in its
-// own random Sim(3) frame; frames 41-69 are lost by the front.
+// own random Sim(3) frame; frames 41-69 are lost by the front. And the
+// helpers of the tests that write and read the manager's files.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "common/geometry.h"
+#include "common/timestamp.h"
 #include "manager/synthetic_submaps.h"
 
 namespace rumi::testing {
@@ -74,6 +87,74 @@ inline Scenario MakeScenario(uint32_t seed = 3, double pixel_noise = 1.0, int nu
   c.seed = seed * 11 + 6;
   s.front_b = MakeSyntheticSubmap(s.scene, c);
   return s;
+}
+
+namespace fs = std::filesystem;
+
+// A fresh folder under $TMPDIR, removed at the end.
+class TempDir {
+ public:
+  TempDir() {
+    static int n = 0;  // NOLINT: test code
+    path_ = fs::temp_directory_path() / ("rumi_mgrsvc_" + std::to_string(::getpid()) + "_" + std::to_string(n++));
+    fs::remove_all(path_);
+  }
+  ~TempDir() { fs::remove_all(path_); }
+  std::string str() const { return path_.string(); }
+  std::string operator/(const std::string& f) const { return (path_ / f).string(); }
+
+ private:
+  fs::path path_;
+};
+
+struct TumRow {
+  Timestamp t;
+  Eigen::Vector3d p;
+  Eigen::Quaterniond q;
+};
+
+inline std::vector<TumRow> ReadTum(const std::string& path) {
+  std::vector<TumRow> rows;
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;  // the TUM writer's header
+    std::istringstream ss(line);
+    std::string t;
+    double v[7];
+    ss >> t >> v[0] >> v[1] >> v[2] >> v[3] >> v[4] >> v[5] >> v[6];
+    TumRow r;
+    EXPECT_TRUE(ParseSecondsToNs(t, &r.t)) << t;
+    r.p = {v[0], v[1], v[2]};
+    r.q = Eigen::Quaterniond(v[6], v[3], v[4], v[5]);
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+inline nlohmann::json ReadJson(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+// Frame index of every row (exact ns), and the position RMSE / max rotation
+// error against the truth after one Sim(3).
+inline void ExpectMatchesTruth(const Scenario& s, const std::vector<TumRow>& rows, int first, int last) {
+  ASSERT_EQ(int(rows.size()), last - first + 1);
+  std::vector<Eigen::Vector3d> est, truth;
+  for (size_t i = 0; i < rows.size(); ++i) {
+    ASSERT_EQ(rows[i].t, s.scene.timestamps[first + i]) << i;
+    est.push_back(rows[i].p);
+    truth.push_back(s.scene.T_wc[first + i].translation());
+  }
+  const UmeyamaResult u = UmeyamaAlign(est, truth, true);
+  ASSERT_TRUE(u.ok);
+  EXPECT_LT(u.rmse, 0.03);  // 1 cm pose noise over ~11 m
+  double max_rot = 0;
+  for (size_t i = 0; i < rows.size(); ++i)
+    max_rot = std::max(max_rot, RotationAngle(u.transform.rotation() * rows[i].q *
+                                              s.scene.T_wc[first + i].rotation().conjugate()));
+  EXPECT_LT(max_rot, 0.015);  // catches a written quaternion in the wrong order / direction
 }
 
 inline double Sim3RotationError(const Sim3& a, const Sim3& b) {

@@ -2,6 +2,8 @@
 
 #include <signal.h>
 
+#include <chrono>
+
 namespace rumi {
 namespace {
 
@@ -42,5 +44,18 @@ const std::atomic<bool>* ProcessSignals::stop() { return &g_stop; }
 int ProcessSignals::stop_signal() { return g_stop_signal.load(); }
 
 bool ProcessSignals::TakeReload() { return g_reload.exchange(false); }
+
+ReloadOnHangup::ReloadOnHangup(std::function<void()> on_reload)
+    : thread_([this, f = std::move(on_reload)] {
+        while (!quit_.load()) {
+          if (ProcessSignals::TakeReload()) f();
+          std::this_thread::sleep_for(std::chrono::milliseconds(200));
+        }
+      }) {}
+
+ReloadOnHangup::~ReloadOnHangup() {
+  quit_.store(true);
+  thread_.join();
+}
 
 }  // namespace rumi

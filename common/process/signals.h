@@ -7,6 +7,8 @@
 //    change live (the log level).
 //  - SIGPIPE is ignored (a vanished socket peer is an error return, not death).
 #include <atomic>
+#include <functional>
+#include <thread>
 
 namespace rumi {
 
@@ -20,6 +22,19 @@ class ProcessSignals {
   static int stop_signal();
   // True once per SIGHUP received since the last call.
   static bool TakeReload();
+};
+
+// Calls on_reload (on its own thread) after each SIGHUP, until destroyed.
+class ReloadOnHangup {
+ public:
+  explicit ReloadOnHangup(std::function<void()> on_reload);
+  ~ReloadOnHangup();
+  ReloadOnHangup(const ReloadOnHangup&) = delete;
+  ReloadOnHangup& operator=(const ReloadOnHangup&) = delete;
+
+ private:
+  std::atomic<bool> quit_{false};
+  std::thread thread_;
 };
 
 }  // namespace rumi

@@ -2,18 +2,11 @@
 // rumi-front on one sequence N times (process contract in docs/eval.md),
 // then computes each run's metrics.json and plots, and prints the paper's
 // Table IV for the output folder.
-#include <fcntl.h>
-#include <signal.h>
-#include <sys/prctl.h>
-#include <sys/stat.h>
-#include <sys/types.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <csignal>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -28,10 +21,16 @@
 #include "common/dataset.h"
 #include "common/eval_table.h"
 #include "common/logging.h"
+#include "common/process/exit_codes.h"
+#include "common/process/signals.h"
+#include "common/process/subprocess.h"
+#include "common/process/supervisor.h"
 #include "common/progress.h"
 #include "common/run_metrics.h"
 #include "common/trajectory.h"
 #include "common/trajectory_plot.h"
+#include "configs/rumi_config.h"
+#include "ipc/segments.h"
 #include "manager/cli/commands.h"
 
 namespace rumi::cli {
@@ -51,127 +50,8 @@ struct EvalRunArgs {
   std::string odometry;  // optional pose source handed to rumi-front
   double timeout_s = 0;  // 0: 600 s + 20 x the sequence duration / rate
   std::string bin_dir;   // default: the folder of this executable
+  bool overwrite = false;  // clear a run folder that holds an earlier run
 };
-
-volatile std::sig_atomic_t g_interrupted = 0;
-void OnInterrupt(int) { g_interrupted = 1; }
-
-std::string ExeDir() {
-  std::error_code ec;
-  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
-  if (ec) throw std::runtime_error("cannot resolve /proc/self/exe: " + ec.message());
-  return self.parent_path().string();
-}
-
-std::string Tail(const std::string& path, size_t max_bytes = 1200) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return "";
-  in.seekg(0, std::ios::end);
-  const std::streamoff size = in.tellg();
-  const std::streamoff from = size > static_cast<std::streamoff>(max_bytes)
-                                  ? size - static_cast<std::streamoff>(max_bytes) : 0;
-  in.seekg(from);
-  std::string s((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  return s;
-}
-
-// ---- the three processes ------------------------------------------------------
-struct Child {
-  std::string name;      // rumi-front, ...
-  std::string log_path;  // its stdout + stderr
-  std::string command;   // for messages
-  pid_t pid = -1;
-  bool running = false;
-  int status = 0;        // waitpid status once exited
-};
-
-std::string Describe(int status) {
-  if (WIFEXITED(status)) return "exited with code " + std::to_string(WEXITSTATUS(status));
-  if (WIFSIGNALED(status)) {
-    return std::string("was killed by signal ") + std::to_string(WTERMSIG(status)) + " (" +
-           strsignal(WTERMSIG(status)) + ")";
-  }
-  return "ended with status " + std::to_string(status);
-}
-
-std::string Quote(const std::vector<std::string>& argv) {
-  std::string s;
-  for (const auto& a : argv) s += (s.empty() ? "" : " ") + a;
-  return s;
-}
-
-// Starts argv in process group *pgid (the first child founds it), output to
-// log_path, stdin from /dev/null; dies with us (PR_SET_PDEATHSIG).
-Child Spawn(const std::string& name, const std::vector<std::string>& argv,
-            const std::string& log_path, pid_t* pgid) {
-  Child c;
-  c.name = name;
-  c.log_path = log_path;
-  c.command = Quote(argv);
-  const int log_fd = ::open(log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (log_fd < 0) throw std::runtime_error("cannot create log " + log_path + ": " + strerror(errno));
-  std::vector<char*> cargv;
-  for (const auto& a : argv) cargv.push_back(const_cast<char*>(a.c_str()));
-  cargv.push_back(nullptr);
-  const pid_t group = *pgid;
-  const pid_t pid = fork();
-  if (pid < 0) {
-    ::close(log_fd);
-    throw std::runtime_error("fork failed for " + name + ": " + strerror(errno));
-  }
-  if (pid == 0) {
-    setpgid(0, group > 0 ? group : 0);
-    prctl(PR_SET_PDEATHSIG, SIGKILL);
-    const int null_fd = ::open("/dev/null", O_RDONLY);
-    if (null_fd >= 0) dup2(null_fd, STDIN_FILENO);
-    dup2(log_fd, STDOUT_FILENO);
-    dup2(log_fd, STDERR_FILENO);
-    signal(SIGINT, SIG_DFL);
-    execv(cargv[0], cargv.data());
-    const std::string msg = "rumi eval run: cannot execute " + argv[0] + ": " + strerror(errno) + "\n";
-    (void)!write(STDERR_FILENO, msg.data(), msg.size());
-    _exit(127);
-  }
-  setpgid(pid, group > 0 ? group : pid);  // also here: no race with the child
-  if (group <= 0) *pgid = pid;
-  ::close(log_fd);
-  c.pid = pid;
-  c.running = true;
-  return c;
-}
-
-void KillGroup(pid_t pgid, std::vector<Child>* children) {
-  if (pgid <= 0) return;
-  kill(-pgid, SIGTERM);
-  // Give them 3 s to close their channels, then SIGKILL.
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(3);
-  auto any_running = [&] {
-    bool any = false;
-    for (Child& c : *children) {
-      if (!c.running) continue;
-      if (waitpid(c.pid, &c.status, WNOHANG) == c.pid) c.running = false; else any = true;
-    }
-    return any;
-  };
-  while (any_running() && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-  if (any_running()) {
-    kill(-pgid, SIGKILL);
-    for (Child& c : *children) {
-      if (c.running && waitpid(c.pid, &c.status, 0) == c.pid) c.running = false;
-    }
-  }
-}
-
-// Segments of one instance (docs/ipc.md); a clean exit unlinks them, a killed
-// producer leaves them behind.
-void RemoveIpcSegments(const std::string& instance) {
-  for (const char* channel : {"windows", "front_submaps", "back_submaps"}) {
-    std::error_code ec;
-    fs::remove(fs::path("/dev/shm") / ("rumi_" + instance + "_" + channel), ec);
-  }
-}
 
 // Counts lines of a growing file (front_frames.txt) without rereading it.
 class LineCounter {
@@ -235,77 +115,37 @@ std::string RequireBinary(const std::string& dir, const std::string& name) {
   return p;
 }
 
-// Waits for all children; false (after killing the group) on the first
-// failure, timeout or Ctrl-C, with the reason in *why.
-bool WaitForChildren(std::vector<Child>* children, pid_t pgid, double timeout_s,
-                     const std::string& frames_path, size_t num_frames, double expected_s,
-                     ProgressLine* progress, std::string* why) {
-  const auto start = std::chrono::steady_clock::now();
-  LineCounter lines(frames_path);
-  for (;;) {
-    bool any_running = false;
-    for (Child& c : *children) {
-      if (!c.running) continue;
-      const pid_t r = waitpid(c.pid, &c.status, WNOHANG);
-      if (r == 0) {
-        any_running = true;
-        continue;
-      }
-      c.running = false;
-      if (r < 0 || !WIFEXITED(c.status) || WEXITSTATUS(c.status) != 0) {
-        KillGroup(pgid, children);
-        std::string m = c.name + " " + Describe(c.status);
-        m += "; command: " + c.command + "\nlog: " + c.log_path;
-        const std::string tail = Tail(c.log_path);
-        if (!tail.empty()) m += "\n--- last lines of " + c.log_path + " ---\n" + tail;
-        // CLI11's parse errors exit with 100..114 (109: unexpected arguments).
-        if (WIFEXITED(c.status) && WEXITSTATUS(c.status) >= 100 && WEXITSTATUS(c.status) <= 114) {
-          m += "\n(" + c.name + " rejected its command line: does it implement the process contract "
-               "of docs/eval.md yet?)";
-        }
-        *why = m;
-        return false;
-      }
-    }
-    if (!any_running) return true;
-    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (g_interrupted) {
-      KillGroup(pgid, children);
-      *why = "interrupted";
-      return false;
-    }
-    if (elapsed > timeout_s) {
-      std::string running;
-      for (const Child& c : *children) {
-        if (c.running) running += "\n  " + c.name + " (log: " + c.log_path + ")";
-      }
-      KillGroup(pgid, children);
-      *why = "timeout after " + FormatDuration(timeout_s) + "; still running:" + running;
-      return false;
-    }
-    // Progress: the front's frames written so far; else time against the
-    // expected replay duration (capped: the back may still be working).
-    const size_t done = lines.Poll();
-    bool front_running = false;
-    for (const Child& c : *children) front_running |= c.running && c.name == "rumi-front";
-    double fraction;
-    std::string detail;
-    if (!front_running) {
-      fraction = 0.99;
-      detail = "front done; waiting for";
-      for (const Child& c : *children) {
-        if (c.running) detail += " " + c.name;
-      }
-    } else if (done > 0) {
-      fraction = std::min(0.98, static_cast<double>(done) / static_cast<double>(num_frames));
-      detail = "frame " + std::to_string(done) + "/" + std::to_string(num_frames);
-    } else {
-      fraction = expected_s > 0 ? std::min(0.95, elapsed / expected_s) : 0.0;
-      detail = "front running";
-    }
-    progress->Update(fraction, detail);
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+// What the processes are doing, for the progress line: the front's frames
+// written so far; once it ended, the back's window and stage (from its
+// notify status) and the manager's state.
+std::string Activity(const Supervisor& sup, int front, int back, int manager, size_t frames, size_t num_frames,
+                     double* fraction) {
+  if (sup.info(front).state == ChildState::kRunning) {
+    *fraction = num_frames ? std::min(0.98, static_cast<double>(frames) / static_cast<double>(num_frames)) : 0.0;
+    return frames ? "frame " + std::to_string(frames) + "/" + std::to_string(num_frames) : "front starting";
   }
+  *fraction = 0.99;
+  std::string d = "front done";
+  if (back >= 0 && sup.info(back).state == ChildState::kRunning) {
+    const nlohmann::json& st = sup.info(back).status;
+    const int built = st.value("built", 0) + st.value("failed", 0);
+    const int received = st.value("received", 0);
+    if (st.contains("building")) {
+      const nlohmann::json& b = st["building"];
+      char buf[160];
+      std::snprintf(buf, sizeof(buf), "; back: window %d of %d (%d frames), %s, %.0f s", built + 1,
+                    std::max(received, built + 1), b.value("frames", 0), b.value("stage", std::string("?")).c_str(),
+                    b.value("elapsed_s", 0.0));
+      d += buf;
+    } else {
+      d += "; back: " + std::to_string(built) + " of " + std::to_string(received) + " windows built";
+    }
+  }
+  if (manager >= 0 && sup.info(manager).state == ChildState::kRunning) {
+    const nlohmann::json& st = sup.info(manager).status;
+    d += "; manager: " + st.value("state", std::string("running"));
+  }
+  return d;
 }
 
 // Converts the front's per-frame lines for the timeline and the timings.
@@ -424,6 +264,41 @@ std::string Rmse(const std::optional<double>& v) {
   return buf;
 }
 
+// The run folder must not hold an earlier run: the manager would reload its
+// map and merge it in. --overwrite clears it.
+void PrepareRunDir(const fs::path& run_dir, bool overwrite) {
+  std::error_code ec;
+  if (fs::exists(run_dir) && !fs::is_empty(run_dir, ec)) {
+    if (!overwrite) {
+      throw std::runtime_error(run_dir.string() +
+                               " holds an earlier run (an evaluation starts from an empty map): pass --overwrite to "
+                               "clear it, or give another --out");
+    }
+    fs::remove_all(run_dir, ec);
+    if (ec) throw std::runtime_error("cannot clear " + run_dir.string() + ": " + ec.message());
+    std::cout << "rumi eval run: cleared " << run_dir.string() << " (--overwrite)\n";
+  }
+  fs::create_directories(run_dir);
+}
+
+// Why a child's exit ends the run: its status, what it means, its command
+// line, its log and the log's tail.
+std::string ExitReport(const Supervisor& sup, int i) {
+  const ChildInfo& in = sup.info(i);
+  const ChildSpec& spec = sup.spec(i);
+  std::string m = in.name + " " + DescribeWaitStatus(in.last_status);
+  if (WIFEXITED(in.last_status)) m += std::string(" (") + DescribeExitCode(WEXITSTATUS(in.last_status)) + ")";
+  std::string cmd;
+  for (const std::string& arg : spec.argv) cmd += (cmd.empty() ? "" : " ") + arg;
+  m += "; command: " + cmd + "\nlog: " + spec.log_path;
+  const std::string tail = FileTail(spec.log_path, 1200);
+  if (!tail.empty()) m += "\n--- last lines of " + spec.log_path + " ---\n" + tail;
+  if (WIFEXITED(in.last_status) && WEXITSTATUS(in.last_status) >= 100 && WEXITSTATUS(in.last_status) <= 114) {
+    m += "\n(" + in.name + " rejected its command line: does it implement the process contract of docs/eval.md yet?)";
+  }
+  return m;
+}
+
 int RunEval(const EvalRunArgs& a) {
   double rate = 0;  // 0: max
   if (a.rate != "max") {
@@ -436,7 +311,8 @@ int RunEval(const EvalRunArgs& a) {
   if (!a.config.empty() && !fs::is_regular_file(a.config)) {
     throw std::runtime_error("config file not found: " + a.config);
   }
-  const std::string bin_dir = a.bin_dir.empty() ? ExeDir() : a.bin_dir;
+  LoadRumiConfig(a.config);  // every section, before anything starts (throws ConfigError)
+  const std::string bin_dir = a.bin_dir.empty() ? ExecutableDir() : a.bin_dir;
   const std::string front_bin = RequireBinary(bin_dir, "rumi-front");
   const std::string back_bin = a.no_back ? "" : RequireBinary(bin_dir, "rumi-back");
   const std::string manager_bin = a.no_back ? "" : RequireBinary(bin_dir, "rumi-manager");
@@ -453,74 +329,85 @@ int RunEval(const EvalRunArgs& a) {
             << (seq.ground_truth.empty() ? std::string("none") : std::to_string(seq.ground_truth.size()) + " poses")
             << ", " << a.runs << " run(s) into " << out.string() << ", timeout "
             << FormatDuration(timeout_s) << " per run" << (a.no_back ? ", front only" : "") << "\n";
-
-  g_interrupted = 0;
-  auto old_int = std::signal(SIGINT, OnInterrupt);
-  auto old_term = std::signal(SIGTERM, OnInterrupt);
-  struct Restore {
-    decltype(old_int) i, t;
-    ~Restore() {
-      std::signal(SIGINT, i);
-      std::signal(SIGTERM, t);
-    }
-  } restore{old_int, old_term};
+  // Segments left by killed runs (their instance id holds a dead pid).
+  for (const std::string& name : ReclaimStaleSegments())
+    std::cout << "rumi eval run: removed the stale shared-memory segment " << name << "\n";
+  ProcessSignals::Install();  // Ctrl-C: stop the children; a second one ends us at once
 
   TableRow row;
   row.sequence = sequence_name;
   for (int k = 1; k <= a.runs; ++k) {
     const fs::path run_dir = out / ("run_" + std::to_string(k));
-    fs::create_directories(run_dir);
-    for (const char* stale : {"metrics.json", "front.txt", "merged.txt", "front_frames.txt",
-                              "front_samples.txt", "front_stats.json", "manager_stats.json",
-                              "back/back_stats.json"}) {
-      std::error_code ec;
-      fs::remove(run_dir / stale, ec);  // a failed rerun must not pass on old results
-    }
+    PrepareRunDir(run_dir, a.overwrite);
     if (!a.no_back) fs::create_directories(run_dir / "back");
     const std::string instance = "eval_" + std::to_string(getpid()) + "_" + std::to_string(k);
-    RemoveIpcSegments(instance);
-
     auto with_config = [&](std::vector<std::string> v) {
-      if (!a.config.empty()) {
-        v.push_back("--config");
-        v.push_back(a.config);
-      }
+      if (!a.config.empty()) v.insert(v.end(), {"--config", a.config});
       return v;
     };
-    std::vector<Child> children;
-    pid_t pgid = 0;
+    SupervisorOptions so;
+    so.restart = false;  // an evaluation gets one run: the first failure ends it
+    so.notify_name = "rumi-eval-" + std::to_string(getpid()) + "-" + std::to_string(k);
+    Supervisor sup(so);
+    auto add = [&](const char* name, std::vector<std::string> argv, bool low_priority) {
+      ChildSpec c;
+      c.name = name;
+      c.argv = std::move(argv);
+      c.log_path = (run_dir / (std::string(name) + ".log")).string();
+      c.truncate_log = true;
+      c.low_priority = low_priority;
+      return sup.Add(std::move(c));
+    };
+    int manager = -1, back = -1;
+    if (!a.no_back) {
+      manager = add("rumi-manager", with_config({manager_bin, "--instance", instance, "--out", run_dir.string()}),
+                    false);
+      back = add("rumi-back", with_config({back_bin, "--instance", instance, "--work", (run_dir / "back").string()}),
+                 false);  // it lowers its own priority (back.low_priority)
+    }
+    std::vector<std::string> front_args = {front_bin, "--dataset", a.dataset, a.path, "--out",
+                                           run_dir.string(), "--instance", instance, "--rate",
+                                           rate > 0 ? a.rate : std::string("max")};
+    // Front alone: no consumer will ever attach, so don't wait for one at the end.
+    if (a.no_back) front_args.insert(front_args.end(), {"--wait-for-consumers", "0"});
+    if (!a.odometry.empty()) front_args.insert(front_args.end(), {"--odometry", a.odometry});
+    const int front = add("rumi-front", with_config(front_args), false);
     std::string why;
-    bool ok = true;
-    try {
-      if (!a.no_back) {
-        children.push_back(Spawn("rumi-manager",
-                                 with_config({manager_bin, "--instance", instance, "--out", run_dir.string()}),
-                                 (run_dir / "rumi-manager.log").string(), &pgid));
-        children.push_back(Spawn("rumi-back",
-                                 with_config({back_bin, "--instance", instance, "--work", (run_dir / "back").string()}),
-                                 (run_dir / "rumi-back.log").string(), &pgid));
+    for (int i = 0; i < static_cast<int>(sup.size()); ++i) {
+      if (!sup.Start(i, &why)) {
+        sup.KillAll();
+        RemoveInstanceSegments(instance, true);
+        throw std::runtime_error(sup.info(i).name + ": " + why);
       }
-      std::vector<std::string> front_args = {front_bin, "--dataset", a.dataset, a.path, "--out",
-                                             run_dir.string(), "--instance", instance, "--rate",
-                                             rate > 0 ? a.rate : std::string("max")};
-      // Front alone: no consumer will ever attach, so don't wait for one at the end.
-      if (a.no_back) front_args.insert(front_args.end(), {"--wait-for-consumers", "0"});
-      if (!a.odometry.empty()) front_args.insert(front_args.end(), {"--odometry", a.odometry});
-      children.push_back(Spawn("rumi-front", with_config(front_args),
-                               (run_dir / "rumi-front.log").string(), &pgid));
-    } catch (const std::exception& e) {
-      KillGroup(pgid, &children);
-      RemoveIpcSegments(instance);
-      throw;
     }
     ProgressLine progress(std::cerr, ProgressLine::IsTerminal(STDERR_FILENO),
                           "run " + std::to_string(k) + "/" + std::to_string(a.runs));
-    ok = WaitForChildren(&children, pgid, timeout_s, (run_dir / "front_frames.txt").string(),
-                         seq.frames.size(), replay_s, &progress, &why);
-    RemoveIpcSegments(instance);
-    if (!ok) {
+    LineCounter lines((run_dir / "front_frames.txt").string());
+    const auto start = std::chrono::steady_clock::now();
+    std::string failure;
+    while (sup.AnyRunning() && failure.empty()) {
+      for (const Supervisor::Exit& e : sup.Poll(0.2)) {
+        if (!(WIFEXITED(e.status) && WEXITSTATUS(e.status) == kExitDone)) failure = ExitReport(sup, e.child);
+      }
+      if (!failure.empty()) break;
+      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      if (ProcessSignals::stop()->load()) {
+        failure = "interrupted";
+      } else if (elapsed > timeout_s) {
+        failure = "timeout after " + FormatDuration(timeout_s) + "; still running:";
+        for (size_t i = 0; i < sup.size(); ++i)
+          if (sup.info(int(i)).state == ChildState::kRunning)
+            failure += "\n  " + sup.info(int(i)).name + " (log: " + sup.spec(int(i)).log_path + ")";
+      }
+      double fraction = 0;
+      const std::string detail = Activity(sup, front, back, manager, lines.Poll(), seq.frames.size(), &fraction);
+      progress.Update(fraction, detail);
+    }
+    if (!failure.empty()) sup.StopAll({front, back, manager}, 3.0);
+    RemoveInstanceSegments(instance, true);
+    if (!failure.empty()) {
       progress.Finish("failed");
-      std::cerr << "rumi eval run: run " << k << " failed: " << why << "\n";
+      std::cerr << "rumi eval run: run " << k << " failed: " << failure << "\n";
       return 1;
     }
     progress.Finish();
@@ -529,6 +416,7 @@ int RunEval(const EvalRunArgs& a) {
               << Rmse(r.front.ate_rmse) << ", merged " << Percent(r.merged.rate_time) << " rmse "
               << Rmse(r.merged.ate_rmse) << ", merges " << r.counts.merges << ", back windows "
               << r.counts.back_windows << " -> " << (run_dir / "metrics.json").string() << "\n";
+    for (const std::string& w : r.warnings) std::cout << "WARNING run " << k << ": " << w << "\n";
     std::ifstream in(run_dir / "metrics.json");
     std::stringstream ss;
     ss << in.rdbuf();
@@ -563,6 +451,8 @@ void AddEvalRunCommand(CLI::App* eval) {
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--bin-dir", a->bin_dir,
                   "folder with rumi-front, rumi-back, rumi-manager (default: next to rumi)");
+  cmd->add_flag("--overwrite", a->overwrite,
+                "clear run folders that hold an earlier run (by default such a folder is refused)");
   cmd->callback([a] {
     int rc = 1;
     try {

@@ -1,4 +1,4 @@
-#include "ipc/process_info.h"
+#include "common/process/process_info.h"
 
 #include <cerrno>
 #include <csignal>

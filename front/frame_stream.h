@@ -1,0 +1,84 @@
+#pragma once
+// Where the front's frames come from (config section `source:`), as a live
+// stream:
+//  - kind: dataset  a recorded sequence (tum, euroc, icl, kitti, folder)
+//    replayed at its recorded rate (FrameReplay), optionally looped, with the
+//    dataset's own timestamps (so it can be evaluated against its ground truth);
+//  - kind: capture  anything OpenCV's VideoCapture opens: a V4L2 device
+//    (/dev/video0, or an index "0"), a video file, an HTTP MJPEG stream (the
+//    ESP32-CAM web server's http://<ip>:81/stream). Frames get ground-station
+//    capture timestamps: the monotonic clock at the grab, mapped to wall time
+//    once at start (so an NTP step never makes time run backwards). A device
+//    or stream that fails or stalls (no frame for stall_timeout_s) is
+//    reopened with a backoff; a file ends the stream at its end (or starts
+//    again with loop).
+// A frame whose size is not the camera's is refused: StreamError (bad input).
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "common/camera.h"
+#include "common/dataset.h"
+#include "common/option_spec.h"
+
+namespace rumi {
+
+struct SourceOptions {
+  std::string kind = "dataset";  // dataset | capture
+  std::string dataset = "tum";   // dataset: tum|euroc|icl|kitti|folder
+  // dataset: its folder. capture: /dev/videoN, a device index, a video file
+  // or a URL (http://host:81/stream, rtsp://...).
+  std::string path;
+  double rate = 1.0;             // dataset: x recorded speed; 0: as fast as possible
+  bool loop = false;             // dataset / video file: start again at the end
+  std::string odometry;          // dataset: TUM file of the robot's pose source (optional)
+  double fps = 0;                // capture of a video file: pace at this rate; 0: the file's own
+  double stall_timeout_s = 3.0;  // capture: no frame for this long = stalled, reopen
+  double reconnect_initial_s = 0.5;  // capture: first wait before reopening; doubles up to the max
+  double reconnect_max_s = 10.0;
+  static const OptionSpec<SourceOptions>& Spec();
+  bool Check(std::string* why = nullptr) const { return Spec().Check(*this, why); }
+};
+
+// The stream cannot go on, and restarting will not help (a frame of the
+// wrong size, a file that does not exist): the front exits kExitBadInput.
+class StreamError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class FrameStream {
+ public:
+  virtual ~FrameStream() = default;
+  virtual const PinholeCamera& camera() const = 0;
+  // Next frame (8-bit grey, the camera's size). Frames the stream passed
+  // over because the front was late go to *skipped. False at the end of the
+  // stream or once *stop is set. Throws StreamError.
+  virtual bool Next(Frame* frame, std::vector<Timestamp>* skipped, const std::atomic<bool>* stop) = 0;
+  virtual std::string Describe() const = 0;
+  // "streaming", "reconnecting: ...", "ended" (for the status); any thread.
+  virtual std::string Status() const = 0;
+  virtual uint64_t unreadable() const = 0;  // frames that could not be decoded
+  // Added to the dataset's listed timestamps (a looped dataset); 0 otherwise.
+  virtual Timestamp timestamp_offset() const { return 0; }
+};
+
+struct StreamOpenOptions {
+  SourceOptions source;
+  // dataset: a rumi config whose camera: section overrides the dataset's.
+  std::string config_path;
+  // capture: the camera (required: a capture has no calibration of its own).
+  const PinholeCameraOptions* camera = nullptr;
+  // dataset: clock time (steady, ns) at which the first frame is due; 0: now.
+  int64_t start_ns = 0;
+};
+
+// Throws StreamError when the source cannot be used at all (no such dataset,
+// no such file, no camera for a capture). A device or URL that is not there
+// yet is not an error: the stream keeps trying.
+std::unique_ptr<FrameStream> OpenFrameStream(const StreamOpenOptions& options);
+
+}  // namespace rumi

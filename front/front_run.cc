@@ -1,0 +1,132 @@
+#include "front/front_run.h"
+
+#include <opencv2/core.hpp>
+#include <spdlog/spdlog.h>
+
+#include <exception>
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "common/process/exit_codes.h"
+#include "common/process/notify.h"
+#include "common/trajectory.h"
+#include "front/front.h"
+
+namespace rumi {
+
+int RunFront(const FrontRunOptions& o, const std::atomic<bool>* stop) {
+  if (o.publisher.out_dir.empty()) {
+    spdlog::error("front: no output folder (--out)");
+    return kExitBadInput;
+  }
+  std::unique_ptr<FrameStream> stream;
+  try {
+    stream = OpenFrameStream(o.stream);
+  } catch (const StreamError& e) {
+    spdlog::error("front: cannot open the source: {}", e.what());
+    return kExitBadInput;
+  }
+  Trajectory odometry;
+  if (!o.stream.source.odometry.empty()) {
+    try {
+      odometry = ReadTumTrajectory(o.stream.source.odometry);
+    } catch (const std::exception& e) {
+      spdlog::error("front: odometry: {}", e.what());
+      return kExitBadInput;
+    }
+    if (odometry.empty()) {
+      spdlog::error("front: odometry {}: no poses", o.stream.source.odometry);
+      return kExitBadInput;
+    }
+  }
+
+  // The front's own stop flag: the caller's, or a bad frame.
+  std::atomic<bool> stop_flag{false};
+  auto stopped = [&] { return stop_flag.load() || (stop && stop->load()); };
+  cv::setNumThreads(1);  // shared cores: OpenCV threads would fight tracking + mapping
+  size_t n = 0, used = 0;
+  try {
+    Front front(o.front, stream->camera(), o.first_submap_id);
+    FrontPublisherOptions popt = o.publisher;
+    popt.first_window_id = o.first_submap_id;
+    FrontPublisher pub(popt, o.ipc, o.sampler, stream->camera().options());
+    FrameStream* source = stream.get();
+    pub.SetSourceStatus([source] { return source->Status(); });
+    spdlog::info("front: {}, instance {}, out {}{}", stream->Describe(), o.ipc.instance, popt.out_dir,
+                 o.first_submap_id ? ", first submap id " + std::to_string(o.first_submap_id) : "");
+    if (!odometry.empty())
+      spdlog::info("front: pose source {} ({} poses)", o.stream.source.odometry, odometry.size());
+    Notifier notifier;
+    notifier.Ready();
+    const std::function<Submap()> snapshot = [&front] { return front.CurrentSubmap(); };
+    Frame frame;
+    std::vector<Timestamp> skipped;
+    size_t next_odometry = 0;
+    Timestamp odometry_offset = 0;
+    bool bad_input = false;
+    for (;;) {
+      if (stopped()) stop_flag.store(true);
+      skipped.clear();
+      bool got = false;
+      try {
+        got = stream->Next(&frame, &skipped, &stop_flag);
+      } catch (const StreamError& e) {
+        spdlog::error("front: {}", e.what());
+        bad_input = true;
+        break;
+      }
+      for (Timestamp t : skipped) {
+        if (o.max_frames > 0 && n >= static_cast<size_t>(o.max_frames)) break;
+        pub.OnSkipped(t);
+        ++n;
+      }
+      if (stopped() && !stop_flag.load()) stop_flag.store(true);
+      if (!got || stopped() || (o.max_frames > 0 && n >= static_cast<size_t>(o.max_frames))) break;
+      // The pose source as a robot would deliver it: every pose up to the
+      // frame and the next one, so the frame's pose can be interpolated. A
+      // looped dataset shifts its poses with its frames.
+      if (!odometry.empty()) {
+        if (stream->timestamp_offset() != odometry_offset) {
+          odometry_offset = stream->timestamp_offset();
+          next_odometry = 0;
+        }
+        while (next_odometry < odometry.size() &&
+               (next_odometry == 0 || odometry[next_odometry - 1].t + odometry_offset <= frame.timestamp)) {
+          front.AddPosePrior(odometry[next_odometry].t + odometry_offset, odometry[next_odometry].T_wc);
+          ++next_odometry;
+        }
+      }
+      const FrameRecord rec = front.Track(frame.timestamp, frame.image);
+      const FrameTiming& tm = front.timings().back();
+      pub.OnFrame(rec, frame.image, tm.total_ms, tm.cpu_ms, front.current_submap_keyframes(), front.FinishedSubmaps(),
+                  snapshot);
+      ++n;
+      ++used;
+    }
+    const bool by_signal = stop && stop->load();
+    if (by_signal) spdlog::info("front: stop requested after {} frames: finishing", n);
+    front.Finish();
+    notifier.Stopping();
+    if (!pub.Finish(front.FinishedSubmaps(), by_signal)) return kExitError;
+    spdlog::info("front: done: {} frames ({} tracked by the front), {} passed over by the stream, {} unreadable, "
+                 "{} submaps",
+                 n, used, n - used, stream->unreadable(), front.FinishedSubmaps().size());
+    if (bad_input) return kExitBadInput;
+    if (by_signal) return kExitStopped;
+    if (used == 0) {
+      spdlog::error("front: not one frame reached the front ({} listed frames passed over, {} unreadable)", n - used,
+                    stream->unreadable());
+      return kExitNothingProcessed;
+    }
+    return kExitDone;
+  } catch (const IpcError& e) {
+    spdlog::error("front: ipc: {}", e.what());
+    return kExitError;
+  } catch (const std::exception& e) {
+    spdlog::error("front: {}", e.what());
+    return kExitError;
+  }
+}
+
+}  // namespace rumi

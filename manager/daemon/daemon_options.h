@@ -1,0 +1,44 @@
+#pragma once
+// Options of rumid, the supervisor (config section `daemon:`).
+#include <string>
+
+#include "common/option_spec.h"
+
+namespace rumi {
+
+struct DaemonOptions {
+  // The instance: shared-memory names, the notify socket, the default state
+  // folder. Several instances (robots) run side by side. The command line's
+  // --instance wins; "" = the config file's name without .yaml.
+  std::string instance;
+  // Where the map, the received submaps, the trajectories, the status and
+  // the children's logs live. "" = $STATE_DIRECTORY (systemd's StateDirectory=)
+  // or /var/lib/rumi/<instance>.
+  std::string state_dir;
+  // Folder of rumi-front, rumi-back and rumi-manager; "" = rumid's own folder.
+  std::string bin_dir;
+  // journal: the children write to rumid's stderr (systemd's journal);
+  // files: state_dir/logs/<child>.log.
+  std::string child_output = "journal";
+  // SIGTERM/SIGINT: everything has stopped (front, back, manager in turn,
+  // final save) within this many seconds, or what is left is killed.
+  double stop_timeout_s = 10.0;
+  // Restarts: a crashed child starts again after restart_backoff_initial_s,
+  // doubling up to restart_backoff_max_s; more than crash_loop_restarts
+  // crashes within crash_loop_window_s give up on it (rumid then exits with
+  // an error, and systemd's Restart= decides).
+  double restart_backoff_initial_s = 0.5;
+  double restart_backoff_max_s = 30.0;
+  int crash_loop_restarts = 5;
+  double crash_loop_window_s = 120.0;
+  // WATCHDOG=1 to systemd only while every child is alive and the manager's
+  // loop turned within this many seconds (a rebuild blocks it).
+  double manager_stall_s = 60.0;
+  // status.json in the state folder is rewritten this often.
+  double status_interval_s = 1.0;
+
+  static const OptionSpec<DaemonOptions>& Spec();
+  bool Check(std::string* why = nullptr) const { return Spec().Check(*this, why); }
+};
+
+}  // namespace rumi

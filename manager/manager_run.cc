@@ -1,0 +1,195 @@
+#include "manager/manager_run.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <thread>
+
+#include "common/process/exit_codes.h"
+#include "common/process/notify.h"
+#include "common/timestamp.h"
+#include "ipc/channel_watch.h"
+
+namespace rumi {
+
+const OptionSpec<ManagerLoopOptions>& ManagerLoopOptions::Spec() {
+  using O = ManagerLoopOptions;
+  static const auto* spec = [] {
+    auto* s = new OptionSpec<O>("manager");
+    s->Number("wait_for_producers_s", &O::wait_for_producers_s, AtLeast(0.0), AtMost(86400.0),
+              "a producer not seen after this long counts as finished (0: wait forever)");
+    s->Number("rebuild_interval_s", &O::rebuild_interval_s, AtLeast(0.0), AtMost(3600.0),
+              "at most one global-map rebuild per this many seconds while submaps arrive");
+    s->Number("rebuild_max_duty", &O::rebuild_max_duty, AtLeast(0.01), AtMost(1.0),
+              "largest share of the time spent rebuilding");
+    s->Number("stop_rebuild_max_s", &O::stop_rebuild_max_s, AtLeast(0.0), AtMost(3600.0),
+              "on SIGTERM, rebuild once more only if the last rebuild took at most this long");
+    return s;
+  }();
+  return *spec;
+}
+
+namespace {
+
+struct Channel {
+  SubmapSource source;
+  SubmapReceiver rx;
+  ProducerWatch watch;
+  uint64_t decode_errors = 0;
+  Channel(const char* what, const IpcOptions& o, SubmapSource s, double wait_s)
+      : source(s), rx(o, s), watch(what, wait_s) {}
+  bool ended(bool producer_death_ends) const {
+    const ProducerEnd e = watch.end();
+    return e == ProducerEnd::kClosed || e == ProducerEnd::kNeverAppeared ||
+           (e == ProducerEnd::kDied && producer_death_ends);
+  }
+};
+
+// Polls one channel once. Returns true when a message arrived. With the
+// journal, the ring slot is let go only once the submap is on disk.
+bool PollChannel(Channel* c, ManagerService* service) {
+  const uint64_t closed_before = c->rx.ring().closed_segments();
+  Submap s;
+  const bool hold = service->options().journal;
+  const PopStatus st = c->rx.Receive(&s, 0.0, hold);
+  if (c->rx.decode_errors() != c->decode_errors) {
+    service->CountDecodeErrors(int64_t(c->rx.decode_errors() - c->decode_errors));
+    c->decode_errors = c->rx.decode_errors();
+  }
+  c->watch.Update(c->rx.ring(), st, closed_before);
+  if (st != PopStatus::kOk) return false;
+  if (s.source != c->source) {
+    spdlog::warn("manager: {} channel delivered a submap marked {}; taken as it is marked",
+                 c->source == SubmapSource::kFront ? "front" : "back",
+                 s.source == SubmapSource::kFront ? "front" : "back");
+  }
+  service->AddSubmap(std::move(s));  // refused ones are logged and counted there
+  if (hold) c->rx.Release();
+  return true;
+}
+
+nlohmann::json StatusJson(const ManagerService& service, const char* state) {
+  const ManagerStats& st = service.stats();
+  return {{"process", "manager"},
+          {"state", state},
+          {"submaps_front", st.submaps_front},
+          {"submaps_back", st.submaps_back},
+          {"components", st.components},
+          {"merges", st.merges},
+          {"messages", st.messages_front + st.messages_back},
+          {"rebuilds", st.rebuilds},
+          {"last_rebuild_s", st.last_rebuild_seconds},
+          {"trajectory_frames", st.trajectory_frames},
+          {"keyframes", st.saved_frames_postculled},
+          {"last_save", st.last_save}};
+}
+
+}  // namespace
+
+bool RebuildDue(const ManagerLoopOptions& loop, double since_last_s, double last_rebuild_s) {
+  const double duty = std::clamp(loop.rebuild_max_duty, 1e-3, 1.0);
+  return since_last_s >= std::max(loop.rebuild_interval_s, last_rebuild_s * (1.0 / duty - 1.0));
+}
+
+ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service, const std::atomic<bool>* stop) {
+  const auto start = std::chrono::steady_clock::now();
+  Channel front("front submap", run.ipc, SubmapSource::kFront, run.loop.wait_for_producers_s);
+  Channel back("back submap", run.ipc, SubmapSource::kBack, run.loop.wait_for_producers_s);
+  Notifier notifier;
+  notifier.Ready();
+  auto last_rebuild = start - std::chrono::hours(1);
+  ManagerExit result = ManagerExit::kProducersDone;
+  std::string why;
+  const auto rebuild = [&]() {
+    spdlog::info("manager: rebuild {} starting", service->stats().rebuilds + 1);
+    notifier.Heartbeat(StatusJson(*service, "rebuilding"), /*force=*/true);
+    const bool ok = service->Rebuild(&why);
+    last_rebuild = std::chrono::steady_clock::now();
+    if (!ok) spdlog::error("manager: {}", why);
+    return ok;
+  };
+  for (;;) {
+    if (stop && stop->load()) {
+      spdlog::info("manager: stop requested");
+      result = ManagerExit::kStopped;
+      break;
+    }
+    bool got = false;
+    // Finished channels are polled too: a restarted producer is read again.
+    for (Channel* c : {&front, &back}) got |= PollChannel(c, service);
+    if (front.ended(run.producer_death_ends) && back.ended(run.producer_death_ends)) break;
+    if (service->dirty() && !got &&
+        RebuildDue(run.loop, SecondsSince(last_rebuild), service->stats().last_rebuild_seconds)) {
+      // Rebuild once the burst is read (got == false: the rings are empty now).
+      // A rebuild that cannot save is logged; the loop goes on, nothing received is dropped.
+      rebuild();
+    } else if (service->unsaved() && !got && SecondsSince(last_rebuild) >= std::max(10.0, run.loop.rebuild_interval_s)) {
+      // A full disk: try again every 10 s, not every turn.
+      last_rebuild = std::chrono::steady_clock::now();
+      if (service->WriteOutputs(&why)) {
+        spdlog::info("manager: saved again after an earlier failure");
+      } else {
+        spdlog::error("manager: still cannot save: {}", why);
+      }
+    }
+    notifier.Heartbeat(StatusJson(*service, "idle"));
+    if (!got) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  if (!front.watch.seen() && !back.watch.seen() && result == ManagerExit::kProducersDone)
+    result = ManagerExit::kNoProducer;
+  if (result == ManagerExit::kStopped) {
+    // What the producers sent before they stopped (rumid stops them first).
+    const auto drain_start = std::chrono::steady_clock::now();
+    while (SecondsSince(drain_start) < 1.0 && (PollChannel(&front, service) || PollChannel(&back, service))) {
+    }
+  }
+  notifier.Stopping();
+  const bool quick = service->stats().last_rebuild_seconds <= run.loop.stop_rebuild_max_s;
+  if (service->dirty() && (result != ManagerExit::kStopped || quick)) {
+    if (!rebuild()) return ManagerExit::kError;
+  } else if (service->dirty()) {
+    spdlog::info("manager: last rebuild took {:.1f} s: saving the received submaps, the next start rebuilds",
+                 service->stats().last_rebuild_seconds);
+  }
+  if (!service->WriteOutputs(&why)) {
+    spdlog::error("manager: {}", why);
+    return ManagerExit::kError;
+  }
+  const ManagerStats& st = service->stats();
+  spdlog::info("manager: done: {} front + {} back submaps ({} messages, {} resends, {} malformed), {} merges, "
+               "{} components, {} frames in merged.txt, keyframes {} -> {}",
+               st.submaps_front, st.submaps_back, st.messages_front + st.messages_back, st.resends,
+               st.decode_errors, st.merges, st.components, st.trajectory_frames, st.saved_frames,
+               st.saved_frames_postculled);
+  return result;
+}
+
+int RunManager(const ManagerRunOptions& run, const std::atomic<bool>* stop) {
+  ManagerService service(run.service);
+  std::string why;
+  if (!service.Start(&why)) {
+    spdlog::error("manager: {}", why);
+    return kExitError;
+  }
+  spdlog::info("manager: instance {}, out {}, map {}{}", run.ipc.instance, run.service.out_dir,
+               run.service.MapPath(), run.service.journal ? ", journal on" : "");
+  try {
+    switch (RunManagerLoop(run, &service, stop)) {
+      case ManagerExit::kProducersDone:
+        return kExitDone;
+      case ManagerExit::kStopped:
+        return kExitStopped;
+      case ManagerExit::kNoProducer:
+        spdlog::error("manager: no producer appeared within {} s", run.loop.wait_for_producers_s);
+        return kExitNoProducer;
+      case ManagerExit::kError:
+        return kExitError;
+    }
+  } catch (const std::exception& e) {  // IpcError and the like: name it, do not abort
+    spdlog::error("manager: {}", e.what());
+  }
+  return kExitError;
+}
+
+}  // namespace rumi
