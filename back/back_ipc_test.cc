@@ -16,6 +16,7 @@
 #include "back/canned_colmap_model.h"
 #include "common/timestamp.h"
 #include "common/process/exit_codes.h"
+#include "common/process/process_info.h"
 #include "ipc/channels.h"
 
 namespace fs = std::filesystem;
@@ -26,13 +27,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double Since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
-bool ProcessGone(pid_t pid) {
-  if (::kill(pid, 0) != 0) return true;
-  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
-  std::string s((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
-  const size_t p = s.rfind(')');
-  return p == std::string::npos || (p + 2 < s.size() && s[p + 2] == 'Z');  // zombie: not running
-}
+bool ProcessGone(pid_t pid) { return !ProcessRunning(pid); }
 
 class BackIpcTest : public ::testing::Test {
  protected:

@@ -184,7 +184,6 @@ class Spool {
 void ReceiveLoop(const BackRunOptions& o, WindowReceiver* rx, SubmapSender* tx, WindowQueue* queue,
                  const Spool* spool, Shared* sh, const std::atomic<bool>* stop) {
   ProducerWatch watch("window", o.back.wait_for_producer_s);
-  Notifier notifier;
   auto last_peer_check = Clock::now();
   Clock::time_point peer_missing_since{};
   for (;;) {
@@ -240,6 +239,19 @@ void ReceiveLoop(const BackRunOptions& o, WindowReceiver* rx, SubmapSender* tx, 
         break;
       }
     }
+  }
+  {
+    std::lock_guard<std::mutex> l(sh->mutex);
+    sh->receiver_done = true;
+  }
+  if (stop && stop->load()) sh->abort.store(true);
+  queue->Close();
+}
+
+// The status for a supervisor (notify), every half second until *done.
+void ReportLoop(Shared* sh, const WindowQueue* queue, const std::atomic<bool>* done) {
+  Notifier notifier;
+  while (!done->load()) {
     nlohmann::json j;
     {
       std::lock_guard<std::mutex> l(sh->mutex);
@@ -254,13 +266,8 @@ void ReceiveLoop(const BackRunOptions& o, WindowReceiver* rx, SubmapSender* tx, 
       }
     }
     notifier.Heartbeat(j);
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
-  {
-    std::lock_guard<std::mutex> l(sh->mutex);
-    sh->receiver_done = true;
-  }
-  if (stop && stop->load()) sh->abort.store(true);
-  queue->Close();
 }
 
 // The back is not realtime: a full submap ring is retried (the manager reads
@@ -330,6 +337,8 @@ int RunBack(const BackRunOptions& o, const std::atomic<bool>* stop) {
   Notifier notifier;
   notifier.Ready();
 
+  std::atomic<bool> reporting_done{false};
+  std::thread reporter(ReportLoop, &sh, &queue, &reporting_done);
   std::thread receiver(ReceiveLoop, std::cref(o), rx.get(), tx.get(), &queue, &spool, &sh, stop);
   BackSubmapBuilder builder(o.back, o.first_submap_id);  // one builder: submap ids stay unique across windows
   builder.set_stage_callback([&sh](const std::string& stage) {
@@ -418,6 +427,8 @@ int RunBack(const BackRunOptions& o, const std::atomic<bool>* stop) {
     spdlog::info("back: stop requested before the work was done (producer {}, {} window(s) waiting{}); closing",
                  ToString(end), queue.size(), interrupted ? ", one cancelled" : "");
   }
+  reporting_done.store(true);
+  reporter.join();
   notifier.Stopping();
   const nlohmann::ordered_json j = StatsJson(c, sh, queue.dropped(), by_signal);
   stats_ok &= WriteStats(o.work_dir, j);

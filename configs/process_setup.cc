@@ -38,6 +38,7 @@ void ProcessSetup::Reload() {
   }
   if (!changed.empty()) spdlog::warn("SIGHUP: {} changed in {}: applied at the next restart", changed, config_path_);
   config_.log_level = fresh.log_level;
+  if (hook_) hook_();
 }
 
 }  // namespace rumi

@@ -4,6 +4,7 @@
 // logging (the command line's level wins over the config's), install the
 // signal handlers (common/process/signals.h) and re-read the config on SIGHUP
 // to apply the new log level (the rest needs a restart, said in the log).
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -21,12 +22,15 @@ class ProcessSetup {
   const RumiConfig& config() const { return config_; }
   RumiConfig* mutable_config() { return &config_; }
   const std::atomic<bool>* stop() const { return ProcessSignals::stop(); }
+  // Called after each SIGHUP's reload (rumid forwards it to its children).
+  void set_reload_hook(std::function<void()> hook) { hook_ = std::move(hook); }
 
  private:
   void Reload();
 
   std::string name_, config_path_, cli_log_level_;
   RumiConfig config_;
+  std::function<void()> hook_;
   std::unique_ptr<ReloadOnHangup> reload_;
 };
 

@@ -27,6 +27,8 @@ const OptionSpec<SourceOptions>& SourceOptions::Spec() {
     s->Number("rate", &O::rate, AtLeast(0.0), AtMost(1000.0), "dataset: x recorded speed; 0: as fast as possible");
     s->Flag("loop", &O::loop, "dataset or video file: start again at the end (timestamps keep increasing)");
     s->Text("odometry", &O::odometry, "dataset: TUM file of the robot's pose source (optional)");
+    s->Text("calibration", &O::calibration,
+            "dataset: '' the config's camera: (else the dataset's own), 'dataset' its own, or a YAML file's camera:");
     s->Number("fps", &O::fps, AtLeast(0.0), AtMost(1000.0), "capture of a video file: pace at this rate; 0: its own");
     s->Number("stall_timeout_s", &O::stall_timeout_s, Above(0.0), AtMost(3600.0),
               "capture: no frame for this long = stalled, reopen");
@@ -55,7 +57,10 @@ class DatasetStream : public FrameStream {
     DatasetOptions d;
     if (!ParseDatasetKind(o.source.dataset, &d.kind)) throw StreamError("unknown dataset kind '" + o.source.dataset + "'");
     d.path = o.source.path;
-    d.config_path = o.config_path;
+    const std::string& cal = o.source.calibration;
+    d.config_path = cal.empty() ? o.config_path : cal == "dataset" ? std::string() : cal;
+    if (!cal.empty() && cal != "dataset" && !std::filesystem::is_regular_file(cal))
+      throw StreamError("source.calibration: no such file: " + cal);
     std::string why;
     if (d.path.empty()) throw StreamError("source.path is empty: which dataset?");
     if (!d.Check(&why)) throw StreamError("dataset options: " + why);

@@ -35,6 +35,11 @@ struct SourceOptions {
   double rate = 1.0;             // dataset: x recorded speed; 0: as fast as possible
   bool loop = false;             // dataset / video file: start again at the end
   std::string odometry;          // dataset: TUM file of the robot's pose source (optional)
+  // dataset: its calibration. "": the config's camera: section when it has
+  // one, else the dataset's own; "dataset": the dataset's own (TUM fr1-3,
+  // EuRoC sensor.yaml, KITTI calib.txt, ...); a path: that YAML's camera:
+  // section (`rumi synth` writes camera.yaml beside its images).
+  std::string calibration;
   double fps = 0;                // capture of a video file: pace at this rate; 0: the file's own
   double stall_timeout_s = 3.0;  // capture: no frame for this long = stalled, reopen
   double reconnect_initial_s = 0.5;  // capture: first wait before reopening; doubles up to the max
@@ -68,7 +73,7 @@ class FrameStream {
 
 struct StreamOpenOptions {
   SourceOptions source;
-  // dataset: a rumi config whose camera: section overrides the dataset's.
+  // dataset: the rumi config (its camera: section, see source.calibration).
   std::string config_path;
   // capture: the camera (required: a capture has no calibration of its own).
   const PinholeCameraOptions* camera = nullptr;

@@ -76,7 +76,7 @@ int Main(int argc, char** argv) {
   app.add_flag("--sync", sync, "run local mapping inline (deterministic; not realtime)");
   // Process mode (docs/eval.md): the configured source (or --dataset),
   // windows and submaps over shared memory.
-  std::string instance, rate, odometry_path;
+  std::string instance, rate, odometry_path, calibration;
   double resend_interval_s = -1, wait_for_consumers_s = -1;
   int64_t first_submap_id = 0, replay_start_ns = 0;
   bool daemon = false;
@@ -84,6 +84,9 @@ int Main(int argc, char** argv) {
   app.add_option("--odometry", odometry_path,
                  "TUM file of the robot's pose source (body -> odometry world; front.odometry_T_bc gives the "
                  "camera in the body), sent with the submaps so the manager can join submaps vision cannot");
+  app.add_option("--calibration", calibration,
+                 "with --instance: the dataset's calibration, 'dataset' or a YAML with camera: (overrides "
+                 "source.calibration)");
   app.add_option("--rate", rate, "with --instance: replay at R x the recorded rate, or max (overrides source.rate)");
   app.add_option("--resend-interval", resend_interval_s, "overrides publisher.resend_interval_s");
   app.add_option("--wait-for-consumers", wait_for_consumers_s, "overrides publisher.wait_for_consumers_s");
@@ -105,6 +108,7 @@ int Main(int argc, char** argv) {
       o.stream.source.path = path;
     }
     if (!odometry_path.empty()) o.stream.source.odometry = odometry_path;
+    if (!calibration.empty()) o.stream.source.calibration = calibration;
     if (!rate.empty()) {
       FrameReplayOptions r;
       if (!ParseReplayRate(rate, &r)) {

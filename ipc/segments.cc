@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <filesystem>
 
 #include "ipc/channels.h"
@@ -59,10 +60,13 @@ std::vector<std::string> RemoveInstanceSegments(const std::string& instance, boo
   return removed;
 }
 
-std::vector<std::string> ReclaimStaleSegments() {
+std::vector<std::string> ReclaimStaleSegments(const std::string& keep_instance) {
   std::vector<std::string> removed;
+  const std::vector<std::string> kept =
+      keep_instance.empty() ? std::vector<std::string>() : InstanceSegmentNames(keep_instance);
   for (const SegmentInfo& i : ListRumiSegments()) {
     if (!i.readable || !i.stale) continue;
+    if (std::find(kept.begin(), kept.end(), i.name) != kept.end()) continue;
     if (RemoveSegment(i.name)) {
       spdlog::info("ipc: removed stale segment {} (producer pid {}, consumer pid {}: both gone)", i.name,
                    i.stats.producer_pid, i.stats.consumer_pid);

@@ -32,7 +32,9 @@ std::vector<SegmentInfo> ListRumiSegments();
 // `force` (the caller knows its children are gone). Returns the names removed.
 std::vector<std::string> RemoveInstanceSegments(const std::string& instance, bool force);
 
-// Removes every stale rumi_* segment (of any instance). Returns the names.
-std::vector<std::string> ReclaimStaleSegments();
+// Removes every stale rumi_* segment (of any instance but `keep_instance`,
+// whose segments a restarting rumid takes over with what is unread in them).
+// Returns the names.
+std::vector<std::string> ReclaimStaleSegments(const std::string& keep_instance = "");
 
 }  // namespace rumi

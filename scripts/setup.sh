@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package rumi needs to build, test and run, then
 # configures and builds into build/. Idempotent: a second run changes nothing.
+#   scripts/setup.sh                 everything (libraries, executables, tests, benchmarks)
+#   scripts/setup.sh TARGET...       only these targets and what they need (the demo: the executables)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -30,4 +32,8 @@ fi
 
 JOBS=${RUMI_JOBS:-$(nproc)}
 cmake -S . -B build -DCMAKE_BUILD_TYPE=${RUMI_BUILD_TYPE:-Release} ${RUMI_CMAKE_ARGS:-}
-cmake --build build -j "$JOBS"
+if [ $# -gt 0 ]; then
+  cmake --build build -j "$JOBS" --target "$@"
+else
+  cmake --build build -j "$JOBS"
+fi

@@ -16,5 +16,9 @@ uint64_t ProcessStartTicks(pid_t pid);
 // True when the process exists and (if known) was started at start_ticks, i.e.
 // it is the same process and not a later one that got the same pid.
 bool ProcessAlive(const ProcessId& id);
+// The process exists and is not a zombie (killed, not reaped yet).
+inline bool ProcessRunning(pid_t pid) {
+  return pid > 0 && ProcessAlive({static_cast<uint64_t>(pid), ProcessStartTicks(pid)});
+}
 
 }  // namespace rumi

@@ -13,6 +13,8 @@ int main(int argc, char** argv) {
   rumi::cli::AddEvalTableCommand(app.get_subcommand("eval"));
   rumi::cli::AddEvalRunCommand(app.get_subcommand("eval"));
   rumi::cli::RegisterSynthCommand(&app);
+  rumi::cli::RegisterStatusCommand(&app);
+  rumi::cli::RegisterConfigCommand(&app);
   app.parse_complete_callback([&] { rumi::SetupLogging("rumi", log_level); });
   CLI11_PARSE(app, argc, argv);
   return 0;
