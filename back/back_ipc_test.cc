@@ -64,6 +64,8 @@ class BackIpcTest : public ::testing::Test {
                           << "  if [ \"$1\" = --output_path ]; then out=$2; fi\n"
                           << "  if [ \"$1\" = --image_path ]; then img=$2; fi\n  shift\ndone\n"
                           << "d=" << dir_.string() << "\n"
+                          << "if [ $cmd = feature_extractor ] && [ -e $d/hang_exec ]; then\n"
+                          << "  echo $$ > $d/sleep.pid.tmp; mv $d/sleep.pid.tmp $d/sleep.pid; exec sleep 60; fi\n"
                           << "if [ $cmd = feature_extractor ] && [ -e $d/hang ]; then\n"
                           << "  echo $$ > $d/sh.pid; sleep 60 & echo $! > $d/sleep.pid.tmp;"
                           << " mv $d/sleep.pid.tmp $d/sleep.pid; wait; fi\n"
@@ -281,6 +283,58 @@ TEST_F(BackIpcTest, SigtermCancelsRunningColmapAndSaysSo) {
   EXPECT_EQ(j["per_window"][0]["status"], "cancelled");
   RingStats rs;
   EXPECT_FALSE(ReadRingStats(SegmentName(ipc_.instance, kBackSubmapChannel), &rs)) << "channel not closed";
+}
+
+// rumid's back (--daemon): a window is on disk before its ring slot is let
+// go; a back killed while COLMAP runs leaves no COLMAP behind, its restart
+// retries that window once and removes the dead one's workspace; a second
+// death on the same window drops it with a log line.
+TEST_F(BackIpcTest, KilledBackRetriesItsWindowOnceThenDropsIt) {
+  std::ofstream(dir_ / "hang_exec") << "1\n";  // COLMAP as it is: one process (no children of its own)
+  const std::string config = Config();
+  WindowSender tx(ipc_);
+  auto run_until_colmap = [&](int round) {
+    fs::remove(dir_ / "sleep.pid");
+    Start({"--config", config, "--daemon"});
+    const auto t0 = Clock::now();
+    while (!fs::exists(dir_ / "sleep.pid") && Since(t0) < 15) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    ASSERT_TRUE(fs::exists(dir_ / "sleep.pid")) << "round " << round << "\n" << Log();
+  };
+  fs::remove(dir_ / "sleep.pid");
+  Start({"--config", config, "--daemon"});
+  ASSERT_EQ(tx.Send(MakeWindow(3, 1000000000LL)), PushStatus::kOk);
+  auto t0 = Clock::now();
+  while (!fs::exists(dir_ / "sleep.pid") && Since(t0) < 15) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_TRUE(fs::exists(dir_ / "sleep.pid")) << Log();
+  EXPECT_TRUE(fs::exists(dir_ / "work" / "spool" / "3.rwin"));
+  pid_t sleeper = 0;
+  std::ifstream(dir_ / "sleep.pid") >> sleeper;
+  ::kill(pid_, SIGKILL);  // mid-COLMAP
+  Wait(5);
+  t0 = Clock::now();
+  while (!ProcessGone(sleeper) && Since(t0) < 5) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_TRUE(ProcessGone(sleeper)) << "COLMAP outlived the killed back";
+  int workspaces = 0;
+  for (const auto& e : fs::directory_iterator(dir_ / "ws")) workspaces += e.is_directory();
+  EXPECT_EQ(workspaces, 1);  // left by the killed back
+
+  run_until_colmap(2);  // the restart takes window 3 from the spool
+  EXPECT_NE(Log().find("window 3 (4 frames) from the spool: rumi-back died while building it; retrying it once"),
+            std::string::npos)
+      << Log();
+  EXPECT_NE(Log().find("removed the workspace"), std::string::npos) << Log();
+  ::kill(pid_, SIGKILL);
+  Wait(5);
+
+  Start({"--config", config, "--daemon"});
+  t0 = Clock::now();
+  while (Log().find("dropped") == std::string::npos && Since(t0) < 15)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_NE(Log().find("window 3 was being built when rumi-back died, twice: dropped"), std::string::npos) << Log();
+  EXPECT_FALSE(fs::exists(dir_ / "work" / "spool" / "3.rwin"));
+  t0 = Clock::now();
+  while (Stats()["windows_dropped"] != 1 && Since(t0) < 5) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_EQ(Stats()["windows_dropped"], 1);
 }
 
 TEST_F(BackIpcTest, ConfigAndCommandLineErrors) {

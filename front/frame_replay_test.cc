@@ -190,5 +190,43 @@ TEST(FrameReplay, SteadyClockSleepStopsEarly) {
   EXPECT_LT(c.NowNs() - t0, 1000 * kMs);
 }
 
+// A looped replay goes on with increasing timestamps: the period is the
+// sequence's duration plus one frame interval, so identity stays unique.
+TEST(FrameReplay, LoopContinuesWithIncreasingTimestamps) {
+  FakeSource src(5);  // 5.0 .. 5.4 s
+  FakeClock clock;
+  FrameReplayOptions o;
+  o.loop = true;
+  FrameReplay r(&src, o, &clock);
+  std::vector<Timestamp> t;
+  Frame f;
+  for (int k = 0; k < 12 && r.Next(&f); ++k) {
+    t.push_back(f.timestamp);
+    clock.now += 1 * kMs;
+  }
+  ASSERT_EQ(t.size(), 12u);
+  for (size_t i = 1; i < t.size(); ++i) EXPECT_EQ(t[i] - t[i - 1], 100 * kMs) << i;
+  EXPECT_EQ(r.loops(), 2);
+  EXPECT_EQ(r.offset(), 2 * 500 * kMs);
+  EXPECT_EQ(r.skipped(), 0u);
+}
+
+// A front that starts late (restarted by rumid) joins the stream where it is:
+// what was due before now is passed over unread, and counted.
+TEST(FrameReplay, LateStartJoinsTheStreamWhereItIs) {
+  FakeSource src(10);
+  FakeClock clock;
+  FrameReplayOptions o;
+  o.start_ns = clock.now - 450 * kMs;  // frames 0..4 were due; 4 is due 50 ms ago, 5 in 50 ms
+  FrameReplay r(&src, o, &clock);
+  std::vector<int> skipped;
+  const std::vector<int> got = Replay(&r, &clock, {1}, &skipped);
+  EXPECT_EQ(skipped, (std::vector<int>{0, 1, 2, 3}));
+  ASSERT_FALSE(got.empty());
+  EXPECT_EQ(got.front(), 4);  // the newest one due is delivered at once
+  EXPECT_EQ(got.back(), 9);
+  EXPECT_EQ(r.delivered() + r.skipped(), 10u);
+}
+
 }  // namespace
 }  // namespace rumi

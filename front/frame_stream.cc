@@ -207,7 +207,9 @@ class CaptureStream : public FrameStream {
         if (is_device_ && std::all_of(o_.path.begin(), o_.path.end(), ::isdigit)) {
           ok = cap_.open(std::stoi(o_.path), cv::CAP_ANY);
         } else {
-          ok = cap_.open(o_.path, is_device_ ? cv::CAP_V4L2 : cv::CAP_ANY, params);
+          // Files and streams through FFmpeg (Debian's OpenCV has it): trying
+          // every backend on a URL fills the log with their refusals.
+          ok = cap_.open(o_.path, is_device_ ? cv::CAP_V4L2 : cv::CAP_FFMPEG, params);
         }
       } catch (const cv::Exception& e) {
         spdlog::warn("source: opening {}: {}", o_.path, e.what());

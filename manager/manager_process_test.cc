@@ -14,9 +14,16 @@
 #include <sstream>
 #include <thread>
 
+#include <sched.h>
+#include <sys/mount.h>
+
+#include "common/process/exit_codes.h"
+#include "common/process/process_info.h"
+#include "common/process/subprocess.h"
+#include "common/process/test_child.h"
 #include "common/timestamp.h"
 #include "ipc/channels.h"
-#include "common/process/exit_codes.h"
+#include "manager/map_file.h"
 #include "manager/test_scenario.h"
 
 namespace rumi {
@@ -95,6 +102,73 @@ std::vector<Timestamp> TumTimes(const std::string& path) {
   }
   return t;
 }
+
+template <typename F>
+bool WaitUntil(F cond, double seconds) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (!cond() && std::chrono::steady_clock::now() < end) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  return cond();
+}
+
+// The full-disk scenario, run by a child process in a mount namespace of its
+// own with the manager's folder on a 4 MiB tmpfs. Returns 0 when everything
+// held, 77 when a tmpfs cannot be mounted here (no CAP_SYS_ADMIN), else the
+// number of the check that failed (see the parent test).
+int FullDiskScenario() {
+  const fs::path dir = std::getenv("RUMI_TEST_DIR");
+  const fs::path state = dir / "state";
+  if (::unshare(CLONE_NEWNS) != 0 || ::mount("none", "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0 ||
+      ::mount("tmpfs", state.c_str(), "tmpfs", 0, "size=4m") != 0)
+    return 77;
+  IpcOptions ipc;
+  ipc.instance = "fulldisk_" + std::to_string(::getpid());
+  ipc.submap_slot_bytes = 4 << 20;
+  const std::string log = (dir / "manager.log").string();
+  const std::string cfg = (dir / "config.yaml").string();
+  std::ofstream(cfg) << "ipc: {submap_slot_bytes: " << ipc.submap_slot_bytes << "}\nmanager: {rebuild_interval_s: 0.2}\n";
+  const pid_t pid = Spawn({"--instance", ipc.instance, "--out", state.string(), "--daemon", "--config", cfg}, log);
+  const auto s = testing::MakeScenario();
+  SubmapSender front(ipc, SubmapSource::kFront);
+  SubmapSender back(ipc, SubmapSource::kBack);
+  if (!WaitAttached(&front, &back, pid, 20)) return 1;
+  front.Send(s.front_a.submap);
+  const fs::path map = state / "map.rumi";
+  if (!WaitUntil([&] { return fs::exists(map) && ReadAll(log).find("rebuild 1 in") != std::string::npos; }, 20))
+    return 2;
+  const std::string before = ReadAll(map.string());
+  {  // fill the disk
+    std::ofstream filler(state / "filler", std::ios::binary);
+    const std::string block(64 << 10, 'x');
+    while (filler.write(block.data(), block.size())) {
+    }
+  }
+  back.Send(s.back.submap);
+  front.Send(s.front_b.submap);
+  // The rebuild's save (not only the journal's) hit the full disk.
+  if (!WaitUntil(
+          [&] {
+            const std::string text = ReadAll(log);
+            const size_t at = text.find("map.rumi.raw.tmp");
+            return at != std::string::npos && text.find("No space left on device", at) != std::string::npos;
+          },
+          20))
+    return 3;
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  if (!ProcessRunning(pid)) return 4;                  // the manager stays up
+  if (ReadAll(map.string()) != before) return 5;       // the previous map, intact
+  GlobalMap loaded;
+  std::string why;
+  if (!LoadGlobalMap(map.string(), &loaded, &why) || loaded.size() != 1) return 6;
+  fs::remove(state / "filler");  // room again: the manager saves on its own
+  if (!WaitUntil([&] { return ReadAll(log).find("saved again") != std::string::npos; }, 30)) return 7;
+  if (!LoadGlobalMap(map.string(), &loaded, &why) || loaded.size() != 3) return 8;
+  ::kill(pid, SIGTERM);
+  if (WaitExit(pid, 20) != kExitStopped) return 9;
+  return 0;
+}
+
+int Child(const std::string& mode) { return mode == "full-disk" ? FullDiskScenario() : 99; }
+RUMI_TEST_CHILD_MODES(Child);
 
 class ManagerProcess : public ::testing::Test {
  protected:
@@ -291,6 +365,36 @@ TEST_F(ManagerProcess, RefusesAConfigWithAnUnknownKey) {
   EXPECT_NE(text.find("manager.no_such_key"), std::string::npos) << text;
   // Every section is checked, the other processes' too.
   EXPECT_NE(text.find("front.whatever"), std::string::npos) << text;
+}
+
+// A full disk at save time leaves the previous map intact and logs the
+// error; the manager stays up and saves once there is room again.
+TEST(ManagerFullDisk, PreviousMapStaysIntactAndTheManagerStaysUp) {
+  ASSERT_TRUE(fs::exists(ManagerBinary())) << ManagerBinary();
+  const fs::path dir = fs::temp_directory_path() / ("rumi_fulldisk_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "state");
+  SpawnOptions so;
+  so.argv = testing::ChildArgv();
+  so.env = {testing::ChildEnv("full-disk"), "RUMI_TEST_DIR=" + dir.string()};
+  std::string why;
+  const pid_t child = SpawnChild(so, &why);
+  ASSERT_GT(child, 0) << why;
+  const int rc = WaitExit(child, 180);
+  if (rc == 77) GTEST_SKIP() << "mounting a small tmpfs needs root (CAP_SYS_ADMIN) in a mount namespace";
+  const char* checks[] = {"ok",
+                          "the manager attached",
+                          "the first save",
+                          "the error logged (No space left on device)",
+                          "the manager still running",
+                          "map.rumi unchanged",
+                          "map.rumi loads with the first submap",
+                          "a save once there is room again",
+                          "the new map with all three submaps",
+                          "exit code 5 on SIGTERM"};
+  EXPECT_EQ(rc, 0) << "failed check: " << (rc > 0 && rc < 10 ? checks[rc] : "?") << "\n--- manager log ---\n"
+                   << ReadAll((dir / "manager.log").string());
+  fs::remove_all(dir);
 }
 
 }  // namespace

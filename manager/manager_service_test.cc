@@ -302,6 +302,42 @@ TEST(ManagerService, ReloadedMapTakesNewSubmapsAndResends) {
   EXPECT_EQ(svc.stats().trajectory_frames, 111);
 }
 
+// rumid's manager keeps a journal: what arrived after the last save
+// survives a manager killed before the next one, and the restart merges it.
+TEST(ManagerService, JournalKeepsWhatArrivedBetweenSavesAcrossAKill) {
+  const auto s = testing::MakeScenario();
+  TempDir dir;
+  std::string why;
+  ManagerServiceOptions o = Options(dir);
+  o.journal = true;
+  {
+    ManagerService svc(o);
+    ASSERT_TRUE(svc.Start(&why)) << why;
+    svc.AddSubmap(s.front_a.submap);
+    ASSERT_TRUE(svc.Rebuild(&why)) << why;  // saved: the journal is empty again
+    EXPECT_TRUE(fs::is_empty(o.JournalDir()));
+    svc.AddSubmap(s.back.submap);
+    svc.AddSubmap(s.front_b.submap);
+    // Killed here: no save after these two.
+  }
+  int entries = 0;
+  for (const auto& e : fs::directory_iterator(o.JournalDir())) entries += e.path().extension() == ".rsub";
+  EXPECT_EQ(entries, 2);
+  ManagerService svc(o);
+  ASSERT_TRUE(svc.Start(&why)) << why;
+  EXPECT_EQ(svc.stats().journal_reloaded, 2);
+  EXPECT_TRUE(svc.dirty());
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_EQ(svc.stats().merges, 2);
+  EXPECT_EQ(svc.stats().trajectory_frames, 111);
+  ExpectMatchesTruth(s, ReadTum(dir / "merged.txt"), 0, 110);
+  // A corrupt entry is moved aside, not fatal.
+  std::ofstream(o.JournalDir() + "/front_9.rsub") << "not a submap";
+  ManagerService again(o);
+  ASSERT_TRUE(again.Start(&why)) << why;
+  EXPECT_TRUE(fs::exists(o.JournalDir() + "/front_9.rsub.bad"));
+}
+
 TEST(ManagerService, BadMapFileIsKeptAsideAndTheServiceStartsEmpty) {
   const auto s = testing::MakeScenario();
   TempDir dir;
