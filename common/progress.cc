@@ -35,10 +35,14 @@ std::string FormatDuration(double seconds) {
 
 std::string FormatProgress(const std::string& label, double fraction, double elapsed_s,
                            const std::string& detail) {
+  // NaN: the share done is not known (the back working after the front):
+  // no percentage, no ETA.
+  const bool known = !std::isnan(fraction);
   fraction = std::clamp(std::isfinite(fraction) ? fraction : 0.0, 0.0, 1.0);
-  const double eta = fraction > 0 ? elapsed_s * (1 - fraction) / fraction : -1;
+  const double eta = known && fraction > 0 ? elapsed_s * (1 - fraction) / fraction : -1;
   char pct[32];
-  std::snprintf(pct, sizeof(pct), "%5.1f %%", 100.0 * fraction);
+  if (known) std::snprintf(pct, sizeof(pct), "%5.1f %%", 100.0 * fraction);
+  else std::snprintf(pct, sizeof(pct), "    ? %%");
   std::string s = label.empty() ? "" : label + "  ";
   s += std::string(pct) + "  elapsed " + FormatDuration(elapsed_s) + "  ETA " + FormatDuration(eta);
   if (!detail.empty()) s += "  " + detail;
@@ -62,7 +66,8 @@ void ProgressLine::Update(double fraction, const std::string& detail) {
 
 void ProgressLine::UpdateAt(double fraction, double elapsed_s, const std::string& detail) {
   if (finished_) return;
-  fraction_ = std::clamp(std::isfinite(fraction) ? fraction : 0.0, 0.0, 1.0);
+  const bool known = !std::isnan(fraction);
+  if (known) fraction_ = std::clamp(std::isfinite(fraction) ? fraction : 0.0, 0.0, 1.0);
   const double pct = 100.0 * fraction_;
   bool due;
   if (tty_) {
@@ -76,7 +81,7 @@ void ProgressLine::UpdateAt(double fraction, double elapsed_s, const std::string
     while (next_percent_ <= pct) next_percent_ += options_.percent_step;
   }
   last_print_s_ = elapsed_s;
-  Print(FormatProgress(label_, fraction_, elapsed_s, detail), false);
+  Print(FormatProgress(label_, known ? fraction_ : fraction, elapsed_s, detail), false);
 }
 
 void ProgressLine::Finish(const std::string& detail) {

@@ -18,7 +18,8 @@ struct ProgressOptions {
 
 // "42s", "3:07", "1:02:03"; "?" for negative or non-finite input.
 std::string FormatDuration(double seconds);
-// "label  42.0 %  elapsed 0:12  ETA 0:17  detail"; ETA "?" until fraction > 0.
+// "label  42.0 %  elapsed 0:12  ETA 0:17  detail"; ETA "?" until fraction > 0;
+// a NaN fraction (the share done is not known): "? %" and ETA "?".
 std::string FormatProgress(const std::string& label, double fraction, double elapsed_s,
                            const std::string& detail);
 

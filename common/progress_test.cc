@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <sstream>
 
 namespace rumi {
@@ -31,6 +33,10 @@ TEST(Progress, EtaFromElapsedAndFraction) {
   EXPECT_NE(s.find("frame 100/400"), std::string::npos) << s;
   EXPECT_NE(FormatProgress("", 0.0, 5, "").find("ETA ?"), std::string::npos);
   EXPECT_NE(FormatProgress("", 1.0, 5, "").find("ETA 0s"), std::string::npos);
+  // Unknown share (the back works after the front ended): no "99 % ETA 0s" for minutes.
+  const std::string unknown = FormatProgress("", std::nan(""), 300, "back: window 1 of 2, exhaustive_matcher, 280 s");
+  EXPECT_NE(unknown.find("? %"), std::string::npos) << unknown;
+  EXPECT_NE(unknown.find("ETA ?"), std::string::npos) << unknown;
 }
 
 TEST(Progress, NonTtyPrintsPlainLinesPerStep) {

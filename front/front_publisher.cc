@@ -15,6 +15,7 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include "common/process/subprocess.h"
 #include "common/timestamp.h"
 #include "common/trajectory.h"
 #include "ipc/channel_watch.h"
@@ -41,6 +42,19 @@ size_t TrackedFrames(const Submap& s) {
   size_t n = 0;
   for (const FrameRecord& r : s.frames) n += r.state == TrackingState::kTracking ? 1 : 0;
   return n;
+}
+
+// Timestamp of the last line of front_frames.txt (0: none): a restarted
+// front appends only what comes after it.
+Timestamp LastLoggedFrame(const std::string& path) {
+  const std::string tail = FileTail(path, 4096);
+  size_t end = tail.find_last_not_of("\n");
+  if (end == std::string::npos) return 0;
+  const size_t newline = tail.rfind('\n', end);
+  const size_t begin = newline == std::string::npos ? 0 : newline + 1;
+  const std::string line = tail.substr(begin, end + 1 - begin);
+  Timestamp t = 0;
+  return ParseSecondsToNs(line.substr(0, line.find(' ')), &t) ? t : 0;
 }
 
 std::ofstream OpenOut(const std::string& path, bool append) {
@@ -96,6 +110,7 @@ FrontPublisher::FrontPublisher(const FrontPublisherOptions& options, const IpcOp
   if (!o_.Check(&why)) throw std::invalid_argument("FrontPublisherOptions: " + why);
   if (!o_.out_dir.empty()) {
     std::filesystem::create_directories(o_.out_dir);
+    if (o_.append_files) logged_until_ = LastLoggedFrame(o_.out_dir + "/front_frames.txt");
     frames_file_ = OpenOut(o_.out_dir + "/front_frames.txt", o_.append_files);
     samples_file_ = OpenOut(o_.out_dir + "/front_samples.txt", o_.append_files);
   }
@@ -226,6 +241,7 @@ void FrontPublisher::OnFrame(const FrameRecord& rec, const cv::Mat& image, doubl
 }
 
 void FrontPublisher::OnSkipped(Timestamp t) {
+  if (t <= logged_until_) return;  // an earlier front (before a restart) logged it
   staged_lines_.push_back({t, TrackingState::kLost, -1, 0.f, 0.f, true});
   ++t_stats_.frames;
   ++t_stats_.skipped_frames;

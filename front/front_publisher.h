@@ -148,6 +148,7 @@ class FrontPublisher {
   std::unique_ptr<WindowSender> windows_;
   std::unique_ptr<SubmapSender> submaps_;
   int64_t opened_ns_ = 0;
+  Timestamp logged_until_ = 0;  // append mode: front_frames.txt already covers frames up to here
   std::ofstream frames_file_, samples_file_;
 
   // Tracking-thread state.

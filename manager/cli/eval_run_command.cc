@@ -124,7 +124,7 @@ std::string Activity(const Supervisor& sup, int front, int back, int manager, si
     *fraction = num_frames ? std::min(0.98, static_cast<double>(frames) / static_cast<double>(num_frames)) : 0.0;
     return frames ? "frame " + std::to_string(frames) + "/" + std::to_string(num_frames) : "front starting";
   }
-  *fraction = 0.99;
+  *fraction = std::nan("");  // what the back still has to do is not known: no ETA
   std::string d = "front done";
   if (back >= 0 && sup.info(back).state == ChildState::kRunning) {
     const nlohmann::json& st = sup.info(back).status;

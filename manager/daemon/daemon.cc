@@ -220,15 +220,20 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
   while (started_all && failure.empty() && !(stop && stop->load())) {
     for (const Supervisor::Exit& e : sup.Poll(0.1)) {
       const ChildInfo& in = sup.info(e.child);
-      if (e.gave_up) {
-        failure = in.name + " " + DescribeWaitStatus(e.status) + (e.crash ? ", crash loop" : "") + ": gave up on it";
-      } else if (!e.crash && e.child == front) {
+      if (!e.crash && e.child == front) {
         source_ended = true;
         spdlog::info("rumid: the source ended; the back finishes its windows, the manager saves, then rumid exits");
       } else if (!e.crash) {
         spdlog::info("rumid: {} finished", in.name);
       }
     }
+    // A child given up on (a crash loop, a config it refuses): the daemon fails.
+    for (int i = 0; i < static_cast<int>(sup.size()) && failure.empty(); ++i) {
+      const ChildInfo& in = sup.info(i);
+      if (in.state == ChildState::kGaveUp)
+        failure = in.name + " " + DescribeWaitStatus(in.last_status) + " and was given up on";
+    }
+    if (!failure.empty()) break;
     if (forward_hangup && forward_hangup->exchange(false)) {
       for (int i = 0; i < static_cast<int>(sup.size()); ++i) sup.Signal(i, SIGHUP);
     }

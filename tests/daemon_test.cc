@@ -1,0 +1,264 @@
+// rumid as systemd runs it: the real rumid, rumi-front, rumi-back and
+// rumi-manager on a generated sequence replayed live (looped), with this test
+// in systemd's place on $NOTIFY_SOCKET. Checks the notify protocol (READY
+// once the children are up, STATUS, WATCHDOG every WatchdogSec/2 only while
+// the manager's loop turns, STOPPING), SIGHUP, a bounded SIGTERM stop that
+// leaves no process and no segment, the state-folder lock, `rumi status`,
+// and a crash loop that gives up.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+
+#include "common/process/notify.h"
+#include "common/process/process_info.h"
+#include "common/process/subprocess.h"
+#include "ipc/segments.h"
+#include "tests/rumi_cli_util.h"
+
+namespace rumi {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+using test::Slurp;
+
+std::string Bin(const std::string& name) {
+  const char* dir = std::getenv("RUMI_BIN_DIR");
+  return (fs::path(dir ? dir : RUMI_BINARY_DIR "/bin") / name).string();
+}
+
+double Since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+class Daemon : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = fs::temp_directory_path() / ("rumi_daemon_test_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    // 3 s of a smooth walk at QVGA: quick to render, tracked, no loss.
+    seq_ = dir_ / "smooth";
+    ASSERT_EQ(test::RunRumiLogged("synth " + seq_.string() + " --scenario smooth --frames 90 --size 320x240 --seed 4",
+                                  dir_ / "synth.log"),
+              0)
+        << Slurp(dir_ / "synth.log");
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+
+  void TearDown() override {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+  }
+
+  // A config for rumid: the sequence looped (it runs until stopped), logs in files.
+  std::string Config(const std::string& name, const std::string& extra = "", const std::string& level = "info") {
+    const fs::path p = dir_ / (name + ".yaml");
+    std::ofstream(p) << Slurp(seq_ / "camera.yaml") << "log_level: " << level << "\n"
+                     << "source: {kind: dataset, dataset: tum, path: " << seq_.string() << ", loop: true}\n"
+                     << "daemon:\n  child_output: files\n  state_dir: " << (dir_ / ("state_" + name)).string()
+                     << "\n  restart_backoff_initial_s: 0.1\n  status_interval_s: 0.2\n"
+                     << extra;
+    return p.string();
+  }
+  fs::path State(const std::string& name) const { return dir_ / ("state_" + name); }
+
+  pid_t Start(const std::vector<std::string>& args, const std::vector<std::string>& env, const std::string& log) {
+    SpawnOptions so;
+    so.argv = {Bin("rumid")};
+    so.argv.insert(so.argv.end(), args.begin(), args.end());
+    so.env = env;
+    so.log_path = log;
+    so.truncate_log = true;
+    std::string why;
+    const pid_t pid = SpawnChild(so, &why);
+    EXPECT_GT(pid, 0) << why;
+    return pid;
+  }
+  // Exit code, -2 killed by a signal, -1 still running after timeout_s.
+  static int WaitExit(pid_t pid, double timeout_s) {
+    const auto t0 = Clock::now();
+    int st = 0;
+    while (Since(t0) < timeout_s) {
+      if (::waitpid(pid, &st, WNOHANG) == pid) return WIFEXITED(st) ? WEXITSTATUS(st) : -2;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return -1;
+  }
+  static nlohmann::json Status(const fs::path& state) {
+    try {
+      return nlohmann::json::parse(Slurp(state / "status.json"));
+    } catch (const std::exception&) {
+      return nlohmann::json::object();
+    }
+  }
+  static pid_t ChildPid(const nlohmann::json& st, const std::string& name) {
+    for (const auto& c : st.value("children", nlohmann::json::array()))
+      if (c.value("name", std::string()) == name) return c.value("pid", -1);
+    return -1;
+  }
+
+  static fs::path dir_, seq_;
+  pid_t pid_ = -1;
+};
+fs::path Daemon::dir_, Daemon::seq_;
+
+TEST_F(Daemon, NotifyProtocolWatchdogHangupAndABoundedStop) {
+  NotifyServer systemd("rumi-daemon-test-" + std::to_string(::getpid()));
+  const std::string cfg = Config("notify", "  manager_stall_s: 2.0\n");
+  const std::string log = (dir_ / "rumid_notify.log").string();
+  pid_ = Start({"--config", cfg, "--instance", "dnotify" + std::to_string(::getpid() % 100000)},
+               {"NOTIFY_SOCKET=" + systemd.address(), "WATCHDOG_USEC=1000000"}, log);
+  const fs::path state = State("notify");
+
+  // READY=1 once front, back and manager are up; STATUS= lines before and after.
+  bool ready = false, stopping = false;
+  std::string status_line;
+  std::vector<double> watchdog_at;
+  const auto t0 = Clock::now();
+  auto drain = [&](double seconds) {
+    const auto until = Clock::now() + std::chrono::duration<double>(seconds);
+    while (Clock::now() < until) {
+      for (const auto& m : systemd.Receive(0.05)) {
+        if (m.pid != pid_) continue;
+        if (m.fields.count("READY")) ready = true;
+        if (m.fields.count("STATUS")) status_line = m.fields.at("STATUS");
+        if (m.fields.count("WATCHDOG")) watchdog_at.push_back(Since(t0));
+        if (m.fields.count("STOPPING")) stopping = true;
+      }
+    }
+  };
+  while (!ready && Since(t0) < 60) drain(0.2);
+  ASSERT_TRUE(ready) << Slurp(log);
+  const nlohmann::json st = Status(state);
+  for (const auto& c : st["children"]) EXPECT_TRUE(c.value("ready", false)) << c.dump();
+
+  // WATCHDOG=1 every WatchdogSec/2 (0.5 s) while all is well.
+  watchdog_at.clear();
+  drain(3.0);
+  EXPECT_GE(watchdog_at.size(), 4u) << Slurp(log);
+  EXPECT_NE(status_line.find("source replaying"), std::string::npos) << status_line;
+
+  // `rumi status` shows it.
+  ASSERT_EQ(test::RunRumiLogged("status --state-dir " + state.string(), dir_ / "status.txt"), 0)
+      << Slurp(dir_ / "status.txt");
+  const std::string table = Slurp(dir_ / "status.txt");
+  for (const char* s : {"rumi-front", "rumi-back", "rumi-manager", "tracking", "replaying"})
+    EXPECT_NE(table.find(s), std::string::npos) << s << "\n" << table;
+  ASSERT_EQ(test::RunRumiLogged("status --json --state-dir " + state.string(), dir_ / "status.json.txt"), 0);
+  EXPECT_TRUE(nlohmann::json::parse(Slurp(dir_ / "status.json.txt"))["alive"].get<bool>());
+
+  // A manager whose loop stops turning: no WATCHDOG=1 after manager_stall_s.
+  const pid_t manager = ChildPid(Status(state), "rumi-manager");
+  ASSERT_GT(manager, 0);
+  ::kill(manager, SIGSTOP);
+  drain(3.0);  // the last heartbeat ages past 2 s within this
+  watchdog_at.clear();
+  drain(1.5);
+  EXPECT_TRUE(watchdog_at.empty()) << watchdog_at.size() << " pings while the manager was stopped";
+  ::kill(manager, SIGCONT);
+  watchdog_at.clear();
+  drain(2.0);
+  EXPECT_FALSE(watchdog_at.empty()) << "pings did not resume";
+
+  // SIGHUP: the config is read again and the new log level applied, here and in the children.
+  {
+    std::string text = Slurp(cfg);
+    text.replace(text.find("log_level: info"), 15, "log_level: debug");
+    std::ofstream(cfg) << text;
+  }
+  ::kill(pid_, SIGHUP);
+  const auto t_hup = Clock::now();
+  const fs::path front_log = state / "logs" / "rumi-front.log";
+  while (Since(t_hup) < 10 && Slurp(front_log).find("log level now debug") == std::string::npos) drain(0.2);
+  EXPECT_NE(Slurp(log).find("SIGHUP: log level now debug"), std::string::npos) << Slurp(log);
+  EXPECT_NE(Slurp(front_log).find("SIGHUP: log level now debug"), std::string::npos);
+
+  // SIGTERM: STOPPING=1, exit 0 within daemon.stop_timeout_s (10 s), nothing left behind.
+  std::vector<pid_t> children;
+  for (const auto& c : Status(state)["children"]) children.push_back(c.value("pid", -1));
+  const std::string instance = Status(state)["instance"];
+  ::kill(pid_, SIGTERM);
+  const auto t_term = Clock::now();
+  int rc = -1;
+  while (rc == -1 && Since(t_term) < 15) {
+    drain(0.05);
+    rc = WaitExit(pid_, 0.05);
+  }
+  const double stop_s = Since(t_term);
+  pid_ = -1;
+  EXPECT_EQ(rc, 0) << Slurp(log);
+  EXPECT_LT(stop_s, 10.5);
+  std::printf("rumid stopped %.2f s after SIGTERM\n", stop_s);
+  EXPECT_TRUE(stopping) << "no STOPPING=1";
+  for (pid_t c : children) EXPECT_FALSE(ProcessRunning(c)) << "child " << c << " outlived rumid";
+  for (const std::string& name : InstanceSegmentNames(instance)) {
+    RingStats s;
+    EXPECT_FALSE(ReadRingStats(name, &s)) << name << " left behind";
+  }
+  EXPECT_EQ(Status(state)["state"], "stopped");
+  EXPECT_EQ(test::RunRumiLogged("status --state-dir " + state.string(), dir_ / "status2.txt"), 3);
+  EXPECT_NE(Slurp(dir_ / "status2.txt").find("not running"), std::string::npos);
+  // The map of the session is there.
+  EXPECT_TRUE(fs::exists(state / "map.rumi"));
+  EXPECT_GT(fs::file_size(state / "merged.txt"), 100u);
+}
+
+TEST_F(Daemon, OneRumidPerStateFolder) {
+  const std::string cfg = Config("lock");
+  const std::string log = (dir_ / "rumid_lock_a.log").string();
+  pid_ = Start({"--config", cfg}, {}, log);
+  const auto t0 = Clock::now();
+  while (Since(t0) < 30 && Status(State("lock")).value("state", std::string()) != "running")
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  const std::string log_b = (dir_ / "rumid_lock_b.log").string();
+  const pid_t b = Start({"--config", cfg, "--instance", "another"}, {}, log_b);
+  EXPECT_EQ(WaitExit(b, 20), 2);
+  EXPECT_NE(Slurp(log_b).find("another rumid (pid " + std::to_string(pid_) + ") runs on"), std::string::npos)
+      << Slurp(log_b);
+  ::kill(pid_, SIGTERM);
+  EXPECT_EQ(WaitExit(pid_, 15), 0);
+  pid_ = -1;
+}
+
+// A child that crashes at every start: restarted with backoff, then given up
+// on with one clear line; rumid fails (systemd's Restart= takes over).
+TEST_F(Daemon, ACrashLoopGivesUpWithAClearLine) {
+  const fs::path bin = dir_ / "bin_crash";
+  fs::create_directories(bin);
+  for (const char* b : {"rumi-back", "rumi-manager"}) fs::create_symlink(Bin(b), bin / b);
+  std::ofstream(bin / "rumi-front") << "#!/bin/sh\necho 'rumi-front: simulated crash' >&2\nkill -SEGV $$\n";
+  fs::permissions(bin / "rumi-front", fs::perms::owner_all);
+  const std::string cfg = Config("crash", "  crash_loop_restarts: 2\n  crash_loop_window_s: 60\n");
+  const std::string log = (dir_ / "rumid_crash.log").string();
+  pid_ = Start({"--config", cfg, "--bin-dir", bin.string()}, {}, log);
+  const int rc = WaitExit(pid_, 60);
+  pid_ = -1;
+  EXPECT_EQ(rc, 1) << Slurp(log);
+  const std::string text = Slurp(log);
+  EXPECT_NE(text.find("rumi-front crashed 3 times within 60 s"), std::string::npos) << text;
+  EXPECT_NE(text.find("giving up on it"), std::string::npos) << text;
+  EXPECT_NE(text.find("restarting it in 0.1 s"), std::string::npos) << text;
+  EXPECT_NE(text.find("restarting it in 0.2 s"), std::string::npos) << text;  // backoff doubles
+  EXPECT_EQ(Status(State("crash"))["state"], "failed");
+}
+
+// Bad configs stop rumid at once with the file, the key and the reason.
+TEST_F(Daemon, BadConfigIsRefusedNamingTheKey) {
+  const std::string cfg = Config("bad", "  stop_timeout_s: -1\n");
+  const std::string log = (dir_ / "rumid_bad.log").string();
+  const pid_t pid = Start({"--config", cfg}, {}, log);
+  EXPECT_EQ(WaitExit(pid, 20), 2);
+  EXPECT_NE(Slurp(log).find("daemon.stop_timeout_s"), std::string::npos) << Slurp(log);
+}
+
+}  // namespace
+}  // namespace rumi

@@ -1,0 +1,68 @@
+// The unit template as systemd reads it: `systemd-analyze verify` on
+// configs/systemd/rumid@.service (ExecStart pointed at the rumid just built)
+// must pass without a single warning, and the unit must hold what the
+// service needs (notify, watchdog, restarts, its own user, state and config
+// folders, hardening).
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "tests/rumi_cli_util.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using rumi::test::Slurp;
+
+const std::string kUnit = std::string(RUMI_SOURCE_DIR) + "/configs/systemd/rumid@.service";
+
+std::string Rumid() {
+  const char* dir = std::getenv("RUMI_BIN_DIR");
+  return (fs::path(dir ? dir : RUMI_BINARY_DIR "/bin") / "rumid").string();
+}
+
+// Output (stdout + stderr) and exit code of `systemd-analyze verify`.
+int Verify(const std::string& unit_text, const fs::path& dir, const std::string& name, std::string* output) {
+  fs::create_directories(dir);
+  std::ofstream(dir / "rumid@.service") << unit_text;
+  const std::string log = (dir / "verify.log").string();
+  const std::string cmd = "systemd-analyze verify " + (dir / name).string() + " > " + log + " 2>&1";
+  const int st = std::system(cmd.c_str());
+  *output = Slurp(log);
+  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+TEST(SystemdUnit, VerifiesCleanlyAndHoldsWhatTheServiceNeeds) {
+  if (std::system("command -v systemd-analyze > /dev/null 2>&1") != 0)
+    GTEST_SKIP() << "systemd-analyze is not installed (Debian package systemd; scripts/setup.sh installs it)";
+  std::string unit = Slurp(kUnit);
+  ASSERT_FALSE(unit.empty()) << kUnit;
+  const std::string exec = "/usr/local/bin/rumid";
+  ASSERT_NE(unit.find(exec), std::string::npos);
+  unit.replace(unit.find(exec), exec.size(), Rumid());
+  const fs::path dir = fs::temp_directory_path() / ("rumi_unit_test_" + std::to_string(getpid()));
+  std::string out;
+  EXPECT_EQ(Verify(unit, dir / "ok", "rumid@robot1.service", &out), 0) << out;
+  EXPECT_EQ(out, "") << "systemd-analyze warned";
+  for (const char* line :
+       {"Type=notify", "WatchdogSec=", "Restart=on-failure", "User=rumi", "StateDirectory=rumi/%i",
+        "ConfigurationDirectory=rumi", "ProtectSystem=strict", "NoNewPrivileges=yes", "KillMode=mixed",
+        "DeviceAllow=char-video4linux rw", "ExecReload=/bin/kill -HUP $MAINPID", "--config /etc/rumi/%i.yaml"}) {
+    EXPECT_NE(unit.find(line), std::string::npos) << line;
+  }
+  // The check can fail: a misspelt key and a missing executable are reported.
+  std::string bad = unit;
+  bad.replace(bad.find("Type=notify"), 11, "Typ=notify");
+  EXPECT_NE(Verify(bad, dir / "bad", "rumid@robot1.service", &out), -1);
+  EXPECT_NE(out.find("Unknown key"), std::string::npos) << out;
+  std::string missing = unit;
+  missing.replace(missing.find(Rumid()), Rumid().size(), "/nonexistent/rumid");
+  EXPECT_NE(Verify(missing, dir / "missing", "rumid@robot1.service", &out), 0) << out;
+  fs::remove_all(dir);
+}
+
+}  // namespace
