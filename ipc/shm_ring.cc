@@ -374,7 +374,14 @@ bool RingConsumer::TryAttach() {
     return false;
   }
   if (h->closed.load(std::memory_order_acquire) && h->tail.load() >= h->head.load()) {
-    last_error_.clear();  // producer left and nothing is unread: wait for the next one
+    // The producer left and nothing is unread: it finished (counted once), and
+    // the next producer makes the segment new.
+    const uint64_t generation = h->producer_generation.load();
+    if (generation != counted_closed_generation_) {
+      counted_closed_generation_ = generation;
+      ++closed_segments_;
+    }
+    last_error_.clear();
     return false;
   }
   const ProcessId c = Consumer(h);

@@ -224,6 +224,9 @@ class RingConsumer {
   uint64_t cursor_ = 0;
   bool holding_ = false;
   uint64_t closed_segments_ = 0;
+  // Generation of the last closed, drained segment counted without attaching
+  // (a consumer that starts after its producer finished: rumid's restarts).
+  uint64_t counted_closed_generation_ = 0;
   std::string last_error_;
 };
 

@@ -8,6 +8,7 @@ void RegisterEvalCommands(CLI::App* app);   // eval_command.cc: eval ate (later 
 void RegisterSynthCommand(CLI::App* app);   // synth_command.cc
 void AddEvalTableCommand(CLI::App* eval);   // eval_table_command.cc: under `eval`
 void AddEvalRunCommand(CLI::App* eval);     // eval_run_command.cc: under `eval`
+void AddEvalSessionCommand(CLI::App* eval); // eval_run_command.cc: a rumid session
 void RegisterStatusCommand(CLI::App* app);  // status_command.cc
 void RegisterConfigCommand(CLI::App* app);  // config_command.cc
 

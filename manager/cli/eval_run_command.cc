@@ -148,10 +148,20 @@ std::string Activity(const Supervisor& sup, int front, int back, int manager, si
   return d;
 }
 
+// Where one run's files are: `rumi eval run` keeps them in one run folder
+// (the back's in back/); a rumid state folder has front/, back/ and the
+// manager's files at its top.
+struct RunFiles {
+  fs::path front, back, manager;  // folders of front_*.txt/json, back_stats.json, merged.txt/manager_stats.json
+  fs::path out;                   // metrics.json and the plots go here
+  static RunFiles EvalRun(const fs::path& run_dir) { return {run_dir, run_dir / "back", run_dir, run_dir}; }
+  static RunFiles DaemonState(const fs::path& state) { return {state / "front", state / "back", state, state}; }
+};
+
 // Converts the front's per-frame lines for the timeline and the timings.
-void LoadFrontFrames(const fs::path& run_dir, std::vector<TimelineFrame>* timeline,
+void LoadFrontFrames(const fs::path& front_dir, std::vector<TimelineFrame>* timeline,
                      std::vector<double>* ms) {
-  const fs::path p = run_dir / "front_frames.txt";
+  const fs::path p = front_dir / "front_frames.txt";
   if (!fs::exists(p)) {
     spdlog::warn("{} missing: no front timings, timeline without states", p.string());
     return;
@@ -167,10 +177,9 @@ void LoadFrontFrames(const fs::path& run_dir, std::vector<TimelineFrame>* timeli
   }
 }
 
-RunMetricsReport ComputeMetricsForRun(const EvalRunArgs& a, const Sequence& seq,
-                                      const fs::path& run_dir, const std::string& sequence_name) {
-  auto required = [&](const char* name) {
-    const fs::path p = run_dir / name;
+RunMetricsReport ComputeMetricsForRun(bool no_back, const Sequence& seq, const RunFiles& files,
+                                      const std::string& sequence_name, const std::string& title) {
+  auto required = [&](const fs::path& p) {
     if (!fs::exists(p)) {
       throw std::runtime_error("the processes ended but " + p.string() +
                                " is missing (contract: docs/eval.md)");
@@ -183,37 +192,37 @@ RunMetricsReport ComputeMetricsForRun(const EvalRunArgs& a, const Sequence& seq,
   in.sequence = sequence_name;
   in.frames = seq.frames;
   in.ground_truth = seq.ground_truth;
-  in.front = ReadTumTrajectory(required("front.txt"), ro);
+  in.front = ReadTumTrajectory(required(files.front / "front.txt"), ro);
   std::vector<TimelineFrame> frames;
-  LoadFrontFrames(run_dir, &frames, &in.front_ms);
+  LoadFrontFrames(files.front, &frames, &in.front_ms);
 
-  const fs::path front_stats = run_dir / "front_stats.json";
+  const fs::path front_stats = files.front / "front_stats.json";
   if (fs::exists(front_stats)) {
     ReadFrontStats(front_stats.string(), &in.counts);
   } else {
     spdlog::warn("{} missing: front_saved_frames = 0", front_stats.string());
   }
-  if (a.no_back) {
+  if (no_back) {
     in.merged = in.front;
     in.counts.saved_frames = in.counts.saved_frames_postculled = in.counts.front_saved_frames;
   } else {
-    in.merged = ReadTumTrajectory(required("merged.txt"), ro);
-    ReadBackStats(required("back/back_stats.json"), &in.counts);
-    ReadManagerStats(required("manager_stats.json"), &in.counts);
+    in.merged = ReadTumTrajectory(required(files.manager / "merged.txt"), ro);
+    ReadBackStats(required(files.back / "back_stats.json"), &in.counts);
+    ReadManagerStats(required(files.manager / "manager_stats.json"), &in.counts);
   }
   const RunMetricsReport report = ComputeRunMetrics(in);
-  WriteRunMetricsJson((run_dir / "metrics.json").string(), report);
+  WriteRunMetricsJson((files.out / "metrics.json").string(), report);
 
   // Plots.
   std::vector<TimelineSample> samples;
-  const fs::path samples_path = run_dir / "front_samples.txt";
+  const fs::path samples_path = files.front / "front_samples.txt";
   if (fs::exists(samples_path)) {
     for (const auto& s : ReadFrontSamples(samples_path.string())) {
       samples.push_back({s.t, s.set, s.window_id});
     }
   }
   TopViewInput top;
-  top.title = sequence_name + "  " + run_dir.filename().string();
+  top.title = sequence_name + "  " + title;
   top.ground_truth = seq.ground_truth;
   // A pose belongs to the front submap of its frame: match within half the
   // median frame interval.
@@ -223,17 +232,17 @@ RunMetricsReport ComputeMetricsForRun(const EvalRunArgs& a, const Sequence& seq,
   const Timestamp tolerance = dt[dt.size() / 2] / 2;
   top.series.push_back(
       {"front (largest submap)", in.front, SubmapIdsByTime(in.front, frames, tolerance)});
-  if (!a.no_back) {
+  if (!no_back) {
     top.series.push_back(
         {"merged (largest map)", in.merged, SubmapIdsByTime(in.merged, frames, tolerance)});
   }
-  WritePng((run_dir / "top_view.png").string(), RenderTopView(top));
+  WritePng((files.out / "top_view.png").string(), RenderTopView(top));
   TimelineInput tl;
-  tl.title = sequence_name + "  " + run_dir.filename().string() + ": front states, samples, back windows";
+  tl.title = sequence_name + "  " + title + ": front states, samples, back windows";
   tl.frames = std::move(frames);
   tl.samples = std::move(samples);
   tl.windows = WindowSpans(tl.samples);
-  WritePng((run_dir / "timeline.png").string(), RenderTimeline(tl));
+  WritePng((files.out / "timeline.png").string(), RenderTimeline(tl));
   // A Fig. 6-style close-up: 1 s before the first loss to 2 s after the
   // front tracks again.
   size_t i = 0;
@@ -245,8 +254,8 @@ RunMetricsReport ComputeMetricsForRun(const EvalRunArgs& a, const Sequence& seq,
     const Timestamp resume = j < tl.frames.size() ? tl.frames[j].t : tl.frames.back().t;
     tl.begin = tl.frames[i].t - kNsPerSecond;
     tl.end = resume + 2 * kNsPerSecond;
-    tl.title = sequence_name + "  " + run_dir.filename().string() + ": first loss";
-    WritePng((run_dir / "timeline_first_loss.png").string(), RenderTimeline(tl));
+    tl.title = sequence_name + "  " + title + ": first loss";
+    WritePng((files.out / "timeline_first_loss.png").string(), RenderTimeline(tl));
   }
   return report;
 }
@@ -411,7 +420,8 @@ int RunEval(const EvalRunArgs& a) {
       return 1;
     }
     progress.Finish();
-    const RunMetricsReport r = ComputeMetricsForRun(a, seq, run_dir, sequence_name);
+    const RunMetricsReport r =
+        ComputeMetricsForRun(a.no_back, seq, RunFiles::EvalRun(run_dir), sequence_name, run_dir.filename().string());
     std::cout << "run " << k << ": front " << Percent(r.front.rate_time) << " rmse "
               << Rmse(r.front.ate_rmse) << ", merged " << Percent(r.merged.rate_time) << " rmse "
               << Rmse(r.merged.ate_rmse) << ", merges " << r.counts.merges << ", back windows "
@@ -426,7 +436,51 @@ int RunEval(const EvalRunArgs& a) {
   return 0;
 }
 
+// `rumi eval session`: the same metrics for what a rumid session left in its
+// state folder, against the dataset it replayed.
+int RunSessionEval(const EvalRunArgs& a, const fs::path& state) {
+  if (!fs::exists(state / "merged.txt")) {
+    throw std::runtime_error(state.string() + " holds no merged.txt: is it the state folder of a rumid session?");
+  }
+  const Sequence seq = LoadSequence(a);
+  const std::string name =
+      a.sequence.empty() ? fs::absolute(a.path).lexically_normal().filename().string() : a.sequence;
+  const RunMetricsReport r = ComputeMetricsForRun(false, seq, RunFiles::DaemonState(state), name, "rumid session");
+  std::cout << "rumid session " << state.string() << ": front " << Percent(r.front.rate_time) << " rmse "
+            << Rmse(r.front.ate_rmse) << ", merged " << Percent(r.merged.rate_time) << " rmse "
+            << Rmse(r.merged.ate_rmse) << ", merges " << r.counts.merges << ", back windows " << r.counts.back_windows
+            << " -> " << (state / "metrics.json").string() << "\n";
+  for (const std::string& w : r.warnings) std::cout << "WARNING: " << w << "\n";
+  TableRow row;
+  row.sequence = name;
+  row.runs.push_back(ParseRunMetrics(FormatRunMetricsJson(r), (state / "metrics.json").string()));
+  std::cout << "\n" << FormatEvalTableMarkdown({row});
+  return 0;
+}
+
 }  // namespace
+
+void AddEvalSessionCommand(CLI::App* eval) {
+  auto a = std::make_shared<EvalRunArgs>();
+  auto state = std::make_shared<std::string>();
+  CLI::App* cmd = eval->add_subcommand(
+      "session", "metrics.json, plots and the table for a rumid session (its state folder) on a replayed dataset");
+  cmd->add_option("state", *state, "the session's state folder (--state-dir, daemon.state_dir)")->required();
+  cmd->add_option("path", a->path, "the dataset the session replayed")->required();
+  cmd->add_option("--dataset", a->dataset, "dataset kind: tum, euroc, icl, kitti, folder")
+      ->required()
+      ->check(CLI::IsMember({"tum", "euroc", "icl", "kitti", "folder"}));
+  cmd->add_option("--config", a->config, "config with the dataset's camera: section (rumi synth: camera.yaml)");
+  cmd->add_option("--sequence", a->sequence, "sequence name in metrics.json (default: folder name)");
+  cmd->callback([a, state] {
+    try {
+      RunSessionEval(*a, *state);
+    } catch (const std::exception& e) {
+      std::cerr << "rumi eval session: " << e.what() << "\n";
+      throw CLI::RuntimeError(1);
+    }
+  });
+}
 
 void AddEvalRunCommand(CLI::App* eval) {
   auto a = std::make_shared<EvalRunArgs>();

@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
   rumi::cli::RegisterEvalCommands(&app);
   rumi::cli::AddEvalTableCommand(app.get_subcommand("eval"));
   rumi::cli::AddEvalRunCommand(app.get_subcommand("eval"));
+  rumi::cli::AddEvalSessionCommand(app.get_subcommand("eval"));
   rumi::cli::RegisterSynthCommand(&app);
   rumi::cli::RegisterStatusCommand(&app);
   rumi::cli::RegisterConfigCommand(&app);

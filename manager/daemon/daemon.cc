@@ -108,6 +108,15 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
   }
   for (const std::string& name : ReclaimStaleSegments(o.instance))
     spdlog::info("rumid: removed the stale shared-memory segment {} (its processes are gone)", name);
+  // This instance's own segments left by a rumid that was killed: kept when
+  // they hold unread messages (the restarted consumers read them), removed
+  // when drained (a finished producer's closed segment would read as "done").
+  for (const std::string& name : InstanceSegmentNames(o.instance)) {
+    RingStats rs;
+    if (ReadRingStats(name, &rs) && !rs.producer_alive && !rs.consumer_alive && rs.tail >= rs.head &&
+        RemoveSegment(name))
+      spdlog::info("rumid: removed {}, drained, left by an earlier run", name);
+  }
 
   // ---- the children ----
   const DaemonOptions& d = c.daemon;
