@@ -118,6 +118,23 @@ class MjpegServer {
   std::thread thread_;
 };
 
+// Sets `stop` after `seconds` (or when destroyed): no stream test hangs.
+struct StopAfter {
+  explicit StopAfter(double seconds)
+      : thread([this, seconds] {
+          const auto t0 = Clock::now();
+          while (!stop && std::chrono::duration<double>(Clock::now() - t0).count() < seconds)
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+          stop = true;
+        }) {}
+  ~StopAfter() {
+    stop = true;
+    thread.join();
+  }
+  std::atomic<bool> stop{false};
+  std::thread thread;
+};
+
 SourceOptions Capture(const std::string& path) {
   SourceOptions s;
   s.kind = "capture";
@@ -200,13 +217,8 @@ TEST(FrameStream, HttpMjpegStreamReconnectsAfterADrop) {
   o.source = Capture(server.url());
   o.camera = &cam;
   auto stream = OpenFrameStream(o);
-  std::atomic<bool> stop{false};
-  std::thread guard([&] {  // bounded: the test never hangs on a stream
-    const auto t0 = Clock::now();
-    while (!stop && std::chrono::duration<double>(Clock::now() - t0).count() < 30)
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    stop = true;
-  });
+  StopAfter guard(30);  // bounded: the test never hangs on a stream
+  std::atomic<bool>& stop = guard.stop;
   std::vector<Timestamp> t;
   bool saw_reconnect = false;
   Frame f;
@@ -214,8 +226,6 @@ TEST(FrameStream, HttpMjpegStreamReconnectsAfterADrop) {
     t.push_back(f.timestamp);
     saw_reconnect |= server.accepted() > 1;
   }
-  stop = true;
-  guard.join();
   ASSERT_GE(t.size(), 12u) << "status: " << stream->Status();
   EXPECT_TRUE(saw_reconnect);
   EXPECT_EQ(server.accepted(), 2);
@@ -232,18 +242,11 @@ TEST(FrameStream, AStalledStreamIsReopened) {
   o.source = Capture(server.url());
   o.camera = &cam;
   auto stream = OpenFrameStream(o);
-  std::atomic<bool> stop{false};
-  std::thread guard([&] {
-    const auto t0 = Clock::now();
-    while (!stop && std::chrono::duration<double>(Clock::now() - t0).count() < 30)
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    stop = true;
-  });
+  StopAfter guard(30);
+  std::atomic<bool>& stop = guard.stop;
   std::vector<Timestamp> t;
   Frame f;
   while (t.size() < 8 && stream->Next(&f, nullptr, &stop)) t.push_back(f.timestamp);
-  stop = true;
-  guard.join();
   ASSERT_GE(t.size(), 8u) << "status: " << stream->Status();
   EXPECT_GE(server.accepted(), 2);
   // The gap is the stall: at least the read timeout, within the server's hold + a reconnect.

@@ -32,35 +32,19 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 using test::Slurp;
 
-double Since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
-std::string Bin(const std::string& name) {
-  const char* dir = std::getenv("RUMI_BIN_DIR");
-  return (fs::path(dir ? dir : RUMI_BINARY_DIR "/bin") / name).string();
-}
-
-nlohmann::json Status(const fs::path& state) {
-  try {
-    return nlohmann::json::parse(Slurp(state / "status.json"));
-  } catch (const std::exception&) {
-    return nlohmann::json::object();
-  }
-}
-
-nlohmann::json Child(const nlohmann::json& st, const std::string& name) {
-  for (const auto& c : st.value("children", nlohmann::json::array()))
-    if (c.value("name", std::string()) == name) return c;
-  return nlohmann::json::object();
-}
+const auto& Since = test::SecondsSince;
+const auto& Bin = test::BinPath;
+const auto& Status = test::ReadStatus;
+const auto& Child = test::StatusChild;
 
 // Submap keys ("front#3", "back#0") in a map file and its journal.
 std::set<std::string> ReceivedSubmaps(const fs::path& state) {
   std::set<std::string> keys;
-  const std::string raw = Slurp(state / "manager_stats.json");
   try {
-    for (const auto& c : nlohmann::json::parse(raw)["component_list"])
-      for (const auto& s : c["submaps"]) keys.insert(s.get<std::string>());
-  } catch (const std::exception&) {
+    const nlohmann::json stats = nlohmann::json::parse(Slurp(state / "manager_stats.json"));
+    for (const auto& c : stats.at("component_list"))
+      for (const auto& s : c.at("submaps")) keys.insert(s.get<std::string>());
+  } catch (const std::exception&) {  // not written yet, or being replaced
   }
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(state / "map.rumi.received", ec)) {
@@ -88,7 +72,9 @@ class DaemonFaults : public ::testing::Test {
               0)
         << Slurp(dir_ / "synth.log");
   }
-  static void TearDownTestSuite() { fs::remove_all(dir_); }
+  static void TearDownTestSuite() {
+    if (!std::getenv("RUMI_KEEP_TEST_DIR")) fs::remove_all(dir_);
+  }
 
   std::string Config(const std::string& name) {
     const fs::path p = dir_ / (name + ".yaml");
@@ -158,6 +144,7 @@ TEST_F(DaemonFaults, EveryChildKilledOnceAndTheMapStillCoversTheSequence) {
     EXPECT_GT(p, 0) << name;
     if (p > 0) ::kill(p, SIGKILL);
     std::printf("killed %s (pid %d) at %.1f s\n", name.c_str(), p, Since(t_ref));
+    std::fflush(stdout);
     return p;
   };
   const auto t0 = Clock::now();

@@ -29,13 +29,8 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 using test::Slurp;
-
-std::string Bin(const std::string& name) {
-  const char* dir = std::getenv("RUMI_BIN_DIR");
-  return (fs::path(dir ? dir : RUMI_BINARY_DIR "/bin") / name).string();
-}
-
-double Since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+const auto& Bin = test::BinPath;
+const auto& Since = test::SecondsSince;
 
 class Daemon : public ::testing::Test {
  protected:
@@ -93,17 +88,9 @@ class Daemon : public ::testing::Test {
     }
     return -1;
   }
-  static nlohmann::json Status(const fs::path& state) {
-    try {
-      return nlohmann::json::parse(Slurp(state / "status.json"));
-    } catch (const std::exception&) {
-      return nlohmann::json::object();
-    }
-  }
+  static nlohmann::json Status(const fs::path& state) { return test::ReadStatus(state); }
   static pid_t ChildPid(const nlohmann::json& st, const std::string& name) {
-    for (const auto& c : st.value("children", nlohmann::json::array()))
-      if (c.value("name", std::string()) == name) return c.value("pid", -1);
-    return -1;
+    return test::StatusChild(st, name).value("pid", -1);
   }
 
   static fs::path dir_, seq_;

@@ -2,10 +2,12 @@
 // Helpers for tests that drive the `rumi` CLI as a user would.
 #include <sys/wait.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <nlohmann/json.hpp>
 #include <string>
 
 namespace rumi {
@@ -22,6 +24,32 @@ inline int RunRumiLogged(const std::string& args, const std::filesystem::path& l
 inline std::string Slurp(const std::filesystem::path& p) {
   std::ifstream in(p);
   return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// A rumi executable of this build ($RUMI_BIN_DIR, set by ctest).
+inline std::string BinPath(const std::string& name) {
+  const char* dir = std::getenv("RUMI_BIN_DIR");
+  return (std::filesystem::path(dir ? dir : RUMI_BINARY_DIR "/bin") / name).string();
+}
+
+inline double SecondsSince(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// A rumid state folder's status.json ({} while there is none or it is being replaced).
+inline nlohmann::json ReadStatus(const std::filesystem::path& state) {
+  try {
+    return nlohmann::json::parse(Slurp(state / "status.json"));
+  } catch (const std::exception&) {
+    return nlohmann::json::object();
+  }
+}
+
+// One child's entry in a status ({} when absent).
+inline nlohmann::json StatusChild(const nlohmann::json& status, const std::string& name) {
+  for (const auto& c : status.value("children", nlohmann::json::array()))
+    if (c.value("name", std::string()) == name) return c;
+  return nlohmann::json::object();
 }
 
 }  // namespace test

@@ -13,7 +13,7 @@ namespace rumi::cli {
 void RegisterStatusCommand(CLI::App* app) {
   struct Args {
     std::string instance = "default", state_dir;
-    bool json = false, brief = false;
+    bool json = false, brief = false, csv = false;
   };
   auto a = std::make_shared<Args>();
   CLI::App* cmd = app->add_subcommand("status", "what a running rumid instance is doing (children, map, back queue)");
@@ -21,6 +21,7 @@ void RegisterStatusCommand(CLI::App* app) {
   cmd->add_option("--state-dir", a->state_dir, "the instance's state folder (overrides --instance)");
   cmd->add_flag("--json", a->json, "print status.json as it is, for scripts");
   cmd->add_flag("--brief", a->brief, "one line: state, source, tracking, submaps, merges, back queue");
+  cmd->add_flag("--csv", a->csv, "a CSV header and one line of figures (memory, fds, rebuilds: scripts/soak.sh)");
   cmd->callback([a] {
     const std::string dir = ResolveStateDir(a->state_dir, "", a->instance);
     nlohmann::json st;
@@ -36,6 +37,8 @@ void RegisterStatusCommand(CLI::App* app) {
     if (a->json) {
       st["alive"] = alive;
       std::cout << st.dump(2) << "\n";
+    } else if (a->csv) {
+      std::cout << DaemonStatusCsv(st, true);
     } else if (a->brief) {
       std::cout << (alive ? "" : "not running: ") << DaemonSummary(st) << "\n";
     } else {

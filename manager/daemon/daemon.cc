@@ -11,6 +11,7 @@
 #include <cmath>
 #include <ctime>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "common/atomic_file.h"
@@ -53,6 +54,21 @@ void SetIdBase(const StateDirLayout& layout, std::vector<std::string>* argv) {
   }
   for (size_t i = 0; i + 1 < argv->size(); ++i)
     if ((*argv)[i] == "--first-submap-id") (*argv)[i + 1] = std::to_string(g * kIdsPerGeneration);
+}
+
+// Resident memory (MiB) and open file descriptors of a process; -1 unknown.
+void AddResources(pid_t pid, nlohmann::json* j) {
+  double rss = -1;
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind("VmRSS:", 0) == 0) rss = std::stod(line.substr(6)) / 1024.0;
+  int fds = 0;
+  std::error_code ec;
+  for (auto it = fs::directory_iterator("/proc/" + std::to_string(pid) + "/fd", ec); !ec && it != fs::directory_iterator();
+       it.increment(ec))
+    ++fds;
+  (*j)["rss_mib"] = rss;
+  (*j)["fds"] = ec ? -1 : fds;
 }
 
 nlohmann::json RingsJson(const std::string& instance) {
@@ -192,9 +208,13 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
       const double hb = in.heartbeat_age_s();
       ch["heartbeat_age_s"] = std::isfinite(hb) ? nlohmann::json(hb) : nlohmann::json();
       if (in.exited_once) ch["last_exit"] = DescribeWaitStatus(in.last_status);
+      if (in.state == ChildState::kRunning) AddResources(in.pid, &ch);
       children.push_back(ch);
     }
     st["children"] = children;
+    nlohmann::json self;
+    AddResources(::getpid(), &self);
+    st["rumid"] = self;
     st["front"] = sup.info(front).status.is_null() ? nlohmann::json::object() : sup.info(front).status;
     st["back"] = sup.info(back).status.is_null() ? nlohmann::json::object() : sup.info(back).status;
     st["manager"] = sup.info(manager).status.is_null() ? nlohmann::json::object() : sup.info(manager).status;

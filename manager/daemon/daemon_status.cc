@@ -78,7 +78,48 @@ std::string FormatDaemonStatus(const nlohmann::json& st, bool alive) {
       << ", dropped " << Get(r, "dropped") << "\n";
   }
   o << "  last save  " << Get(m, "last_save") << "\n";
+  const nlohmann::json& self = st.value("rumid", nlohmann::json::object());
+  o << "  memory     rumid " << Get(self, "rss_mib") << " MiB";
+  for (const auto& c : st.value("children", nlohmann::json::array()))
+    o << ", " << Get(c, "name") << " " << Get(c, "rss_mib") << " MiB (" << Get(c, "fds") << " fds)";
+  o << "\n";
   return o.str();
+}
+
+std::string DaemonStatusCsv(const nlohmann::json& st, bool header) {
+  std::ostringstream h, v;
+  auto col = [&](const std::string& name, const std::string& value) {
+    h << (h.tellp() > 0 ? "," : "") << name;
+    v << (v.tellp() > 0 ? "," : "") << value;
+  };
+  col("uptime_s", Get(st, "uptime_s", ""));
+  const nlohmann::json& r = st.value("rumid", nlohmann::json::object());
+  col("rumid_rss_mib", Get(r, "rss_mib", ""));
+  col("rumid_fds", Get(r, "fds", ""));
+  for (const char* name : {"rumi-front", "rumi-back", "rumi-manager"}) {
+    nlohmann::json c = nlohmann::json::object();
+    for (const auto& x : st.value("children", nlohmann::json::array()))
+      if (x.value("name", std::string()) == name) c = x;
+    const std::string p = std::string(name).substr(5);  // front, back, manager
+    col(p + "_rss_mib", Get(c, "rss_mib", ""));
+    col(p + "_fds", Get(c, "fds", ""));
+    col(p + "_restarts", Get(c, "restarts", ""));
+  }
+  const nlohmann::json& f = st.value("front", nlohmann::json::object());
+  const nlohmann::json& b = st.value("back", nlohmann::json::object());
+  const nlohmann::json& m = st.value("manager", nlohmann::json::object());
+  col("frames", Get(f, "frames", ""));
+  col("tracked", Get(f, "tracked", ""));
+  col("submaps_front", Get(m, "submaps_front", ""));
+  col("submaps_back", Get(m, "submaps_back", ""));
+  col("components", Get(m, "components", ""));
+  col("merges", Get(m, "merges", ""));
+  col("rebuilds", Get(m, "rebuilds", ""));
+  col("last_rebuild_s", Get(m, "last_rebuild_s", ""));
+  col("windows_built", Get(b, "built", ""));
+  col("windows_failed", Get(b, "failed", ""));
+  col("windows_dropped", Get(b, "dropped", ""));
+  return (header ? h.str() + "\n" : std::string()) + v.str() + "\n";
 }
 
 bool ReadDaemonStatus(const std::string& state_dir, nlohmann::json* status, std::string* why) {

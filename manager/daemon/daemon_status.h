@@ -20,6 +20,12 @@ std::string DaemonSummary(const nlohmann::json& status);
 // The human table of `rumi status`. `alive`: rumid's pid still runs.
 std::string FormatDaemonStatus(const nlohmann::json& status, bool alive);
 
+// One CSV line (with a header line before it when `header`): the soak
+// benchmark's sample (scripts/soak.sh): uptime, RSS and fds of rumid and each
+// child, restarts, frames, submaps, merges, rebuilds, last rebuild time,
+// windows built / failed / dropped.
+std::string DaemonStatusCsv(const nlohmann::json& status, bool header);
+
 // Reads <state_dir>/status.json; false with *why (no rumid ran there, unreadable).
 bool ReadDaemonStatus(const std::string& state_dir, nlohmann::json* status, std::string* why);
 
