@@ -58,7 +58,7 @@ class BackIpcTest : public ::testing::Test {
 
   // Fake colmap: the mapper copies canned/<stem of the first image>/ (if any)
   // into the output; feature extraction hangs when `hang` exists.
-  std::string Config(int max_queue_windows = 4) {
+  std::string Config(int max_queue_windows = 4, const std::string& back_extra = "") {
     const fs::path script = dir_ / "colmap.sh";
     std::ofstream(script) << "#!/bin/sh\ncmd=$1\nout=''\nimg=''\nwhile [ $# -gt 0 ]; do\n"
                           << "  if [ \"$1\" = --output_path ]; then out=$2; fi\n"
@@ -74,7 +74,8 @@ class BackIpcTest : public ::testing::Test {
     ::chmod(script.c_str(), 0755);
     const fs::path p = dir_ / "config.yaml";
     std::ofstream(p) << "back: {colmap_path: " << script.string() << ", workspace_dir: " << (dir_ / "ws").string()
-                     << ", max_queue_windows: " << max_queue_windows << ", low_priority: false, step_timeout_s: 30}\n"
+                     << ", max_queue_windows: " << max_queue_windows << ", low_priority: false, step_timeout_s: 30"
+                     << back_extra << "}\n"
                      << "ipc: {window_slot_bytes: " << ipc_.window_slot_bytes
                      << ", submap_slot_bytes: " << ipc_.submap_slot_bytes << "}\n"
                      << "log_level: debug\n"
@@ -335,6 +336,27 @@ TEST_F(BackIpcTest, KilledBackRetriesItsWindowOnceThenDropsIt) {
   t0 = Clock::now();
   while (Stats()["windows_dropped"] != 1 && Since(t0) < 5) std::this_thread::sleep_for(std::chrono::milliseconds(20));
   EXPECT_EQ(Stats()["windows_dropped"], 1);
+}
+
+// The manager attached, then vanished and did not come back: the back stops
+// instead of working for nobody, and says so in its exit code.
+TEST_F(BackIpcTest, AManagerGoneForGoodEndsTheBack) {
+  Start({"--config", Config(4, ", peer_timeout_s: 1")});
+  const std::string segment = SegmentName(ipc_.instance, kBackSubmapChannel);
+  const auto t0 = Clock::now();
+  RingStats rs;
+  while (!ReadRingStats(segment, &rs) && Since(t0) < 10) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_TRUE(ReadRingStats(segment, &rs)) << Log();
+  const pid_t manager = ::fork();
+  if (manager == 0) {  // attaches as the consumer, then dies without a word
+    SubmapReceiver rx(ipc_, SubmapSource::kBack);
+    Submap s;
+    rx.Receive(&s, 0.2);
+    ::_exit(0);
+  }
+  ::waitpid(manager, nullptr, 0);
+  EXPECT_EQ(Wait(15), kExitPeerGone) << Log();
+  EXPECT_NE(Log().find("the manager has been gone for 1 s: stopping"), std::string::npos) << Log();
 }
 
 TEST_F(BackIpcTest, ConfigAndCommandLineErrors) {

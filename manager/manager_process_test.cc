@@ -117,7 +117,24 @@ bool WaitUntil(F cond, double seconds) {
 int FullDiskScenario() {
   const fs::path dir = std::getenv("RUMI_TEST_DIR");
   const fs::path state = dir / "state";
-  if (::unshare(CLONE_NEWNS) != 0 || ::mount("none", "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0 ||
+  // A mount namespace of our own, with the mount that holds `dir` made
+  // private first (so the tmpfs never shows outside; "/" is not a mount
+  // point in a chroot, its /tmp may be), then the tmpfs.
+  if (::unshare(CLONE_NEWNS) != 0) return 77;
+  std::string holder = "/";
+  {
+    std::ifstream info("/proc/self/mountinfo");
+    for (std::string line; std::getline(info, line);) {
+      std::istringstream f(line);
+      std::string id, parent, dev, root, point;
+      f >> id >> parent >> dev >> root >> point;
+      const std::string d = dir.string();
+      if (point.size() > holder.size() && d.compare(0, point.size(), point) == 0 &&
+          (d.size() == point.size() || d[point.size()] == '/'))
+        holder = point;
+    }
+  }
+  if (::mount(nullptr, holder.c_str(), nullptr, MS_REC | MS_PRIVATE, nullptr) != 0 ||
       ::mount("tmpfs", state.c_str(), "tmpfs", 0, "size=4m") != 0)
     return 77;
   IpcOptions ipc;

@@ -213,6 +213,7 @@ void Supervisor::StopAll(const std::vector<int>& order, double timeout_s) {
   const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
   std::vector<Exit> ignored;
   for (size_t k = 0; k < order.size(); ++k) {
+    if (order[k] < 0 || order[k] >= static_cast<int>(children_.size())) continue;  // not started (front only)
     Child& c = children_[order[k]];
     if (c.info.state != ChildState::kRunning) continue;
     ::kill(-c.info.pid, SIGTERM);

@@ -102,9 +102,10 @@ class Supervisor {
 
   // Sends sig to child i's process group (no-op when it is not running).
   void Signal(int i, int sig);
-  // SIGTERM the children in `order` one after the other, each given its share
-  // of timeout_s to exit (the last one whatever is left), then SIGKILL what
-  // still runs. No restarts happen from here on.
+  // SIGTERM the children in `order` one after the other (indices out of
+  // range are skipped), each given its share of timeout_s to exit (the last
+  // one whatever is left), then SIGKILL what still runs. No restarts happen
+  // from here on.
   void StopAll(const std::vector<int>& order, double timeout_s);
   // SIGKILL every running child (and its group) and reap it.
   void KillAll();
