@@ -89,6 +89,7 @@ int main(int argc, char** argv) {
     run.producer_death_ends = !daemon;
     run.keep_segments = daemon;
     run.first_submap_id = first_submap_id;
+    if (daemon) run.finish = ProcessSignals::finish();
     std::string why;
     if (!run.ipc.Check(&why)) {
       spdlog::error("--instance '{}': {}", instance, why);

@@ -26,6 +26,9 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
+// Back submap ids under rumid: window id x this + model index.
+constexpr int64_t kSubmapsPerWindow = 100;
+
 // What back_stats.json reports per window. Written by the worker thread only.
 struct WindowRecord {
   int64_t window_id = -1;
@@ -129,15 +132,24 @@ class Spool {
   int Start(int64_t id) const {
     if (!enabled()) return 1;
     const int attempt = Attempts(id) + 1;
-    std::string why;
-    if (!WriteFileAtomically(AttemptPath(id), std::to_string(attempt) + "\n", &why)) spdlog::warn("back: {}", why);
+    SetAttempts(id, attempt);
     return attempt;
   }
+  // A build that ended without dying (cancelled by a stop, submaps not
+  // delivered) does not count: the window stays for the next start.
+  void Keep(int64_t id, int attempt) const {
+    if (enabled()) SetAttempts(id, attempt - 1);
+  }
+  bool Has(int64_t id) const { return enabled() && std::filesystem::exists(WindowPath(id)); }
   void Remove(int64_t id) const {
     if (!enabled()) return;
     std::error_code ec;
     fs::remove(WindowPath(id), ec);
     fs::remove(AttemptPath(id), ec);
+  }
+  void SetAttempts(int64_t id, int n) const {
+    std::string why;
+    if (!WriteFileAtomically(AttemptPath(id), std::to_string(n) + "\n", &why)) spdlog::warn("back: {}", why);
   }
   int Attempts(int64_t id) const {
     std::ifstream in(AttemptPath(id));
@@ -178,6 +190,14 @@ class Spool {
   std::string dir_;
 };
 
+// Whether the window stream is over: its producer closed its channel (and,
+// under rumid, the source ended), died (`rumi eval run` only), or never came.
+bool StreamOver(const BackRunOptions& o, ProducerEnd end) {
+  const bool finished = !o.finish || o.finish->load();
+  return ((end == ProducerEnd::kClosed || end == ProducerEnd::kNeverAppeared) && finished) ||
+         (end == ProducerEnd::kDied && o.producer_death_ends);
+}
+
 // Pulls windows off the ring into the queue as fast as they come, so the ring
 // never fills while COLMAP runs (the queue drops its oldest window instead),
 // watches the producer and the manager, and reports the status.
@@ -198,6 +218,11 @@ void ReceiveLoop(const BackRunOptions& o, WindowReceiver* rx, SubmapSender* tx, 
       sh->producer_end = watch.end();
     }
     if (st == PopStatus::kOk) {
+      if (spool->Has(w.id)) {  // spooled, then killed before the slot was let go: it is queued already
+        rx->Release();
+        spdlog::info("back: window {} is in the spool already; not queued twice", w.id);
+        continue;
+      }
       std::string why;
       if (!spool->Put(w, &why)) spdlog::error("back: cannot spool window {}: {}", w.id, why);
       if (spool->enabled()) rx->Release();  // on disk now
@@ -216,10 +241,7 @@ void ReceiveLoop(const BackRunOptions& o, WindowReceiver* rx, SubmapSender* tx, 
       spdlog::info("back: received window {} ({} frames), {} waiting", id, frames, queue->size());
       continue;
     }
-    const ProducerEnd end = watch.end();
-    if (end == ProducerEnd::kClosed || end == ProducerEnd::kNeverAppeared ||
-        (end == ProducerEnd::kDied && o.producer_death_ends))
-      break;
+    if (StreamOver(o, watch.end())) break;
     if (st != PopStatus::kEmpty) std::this_thread::sleep_for(std::chrono::milliseconds(20));
     // The manager (consumer of our submaps) gone and not back: nobody to work for.
     if (std::chrono::duration<double>(Clock::now() - last_peer_check).count() > 0.5) {
@@ -365,6 +387,9 @@ int RunBack(const BackRunOptions& o, const std::atomic<bool>* stop) {
       sh.stage = "preparing";
       sh.building_since = Clock::now();
     }
+    // Under rumid a window's back submaps are numbered from its id: a window
+    // built again after a restart replaces its earlier submaps in the map.
+    if (spool.enabled()) builder.set_next_submap_id(w.id * kSubmapsPerWindow);
     const BackResult r = builder.Build(w, &sh.abort);
     WindowRecord rec;
     rec.window_id = w.id;
@@ -380,8 +405,10 @@ int RunBack(const BackRunOptions& o, const std::atomic<bool>* stop) {
     // The builder logs the outcome and warnings; a failure sends nothing.
     if (!r.ok() && r.status != BackStatus::kCancelled)
       spdlog::error("back: window {} failed ({}); no submap sent", w.id, ToString(r.status));
+    bool all_sent = true;
     for (const Submap& s : r.submaps) {
       const PushStatus st = SendWithRetry(tx.get(), s, o.back.wait_for_consumer_s, &sh.abort);
+      all_sent &= st == PushStatus::kOk;
       if (st == PushStatus::kOk) {
         ++c.submaps_sent;
         rec.submap_ids.push_back(s.id);
@@ -395,8 +422,11 @@ int RunBack(const BackRunOptions& o, const std::atomic<bool>* stop) {
         spdlog::error("back: back submap {} not sent: {}", s.id, ToString(st));
       }
     }
-    if (r.status == BackStatus::kCancelled) {
-      interrupted = true;  // stays in the spool: a restarted back builds it
+    if (r.status == BackStatus::kCancelled || !all_sent) {
+      interrupted = r.status == BackStatus::kCancelled;
+      spool.Keep(w.id, attempt);  // stays in the spool: a restarted back builds it
+      if (!all_sent && spool.enabled())
+        spdlog::warn("back: window {}: not every submap reached the manager; kept in the spool", w.id);
     } else {
       spool.Remove(w.id);
     }
@@ -417,8 +447,7 @@ int RunBack(const BackRunOptions& o, const std::atomic<bool>* stop) {
     std::lock_guard<std::mutex> l(sh.mutex);
     end = sh.producer_end;
   }
-  const bool stream_over = end == ProducerEnd::kClosed || end == ProducerEnd::kNeverAppeared ||
-                           (end == ProducerEnd::kDied && o.producer_death_ends);
+  const bool stream_over = StreamOver(o, end);
   const bool work_done = stream_over && !interrupted && queue.size() == 0;
   if (work_done && !sh.peer_gone.load()) {
     spdlog::info("back: window producer {}, queue empty: done", ToString(end));

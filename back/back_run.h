@@ -24,6 +24,10 @@ struct BackRunOptions {
   bool producer_death_ends = true;
   bool keep_segments = false;       // rumid: see RingProducer::KeepSegmentOnClose
   int64_t first_submap_id = 0;      // rumid: unique across restarts
+  // rumid: a closed window channel ends the back only once this is set
+  // (SIGUSR1: the source ended); before, a closed channel may be a front
+  // that is being restarted. nullptr (`rumi eval run`): a closed channel ends it.
+  const std::atomic<bool>* finish = nullptr;
 };
 
 // Runs until the window producer has closed its channel (or, with

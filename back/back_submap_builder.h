@@ -66,6 +66,8 @@ class BackSubmapBuilder {
   BackResult Build(const ImageWindow& window, const std::atomic<bool>* cancel = nullptr);
 
   const BackOptions& options() const { return options_; }
+  // The next submap gets this id (then +1 per submap).
+  void set_next_submap_id(int64_t id) { next_submap_id_ = id; }
   // Called with the COLMAP step about to run ("feature_extractor", ...).
   void set_stage_callback(std::function<void(const std::string&)> f) { on_stage_ = std::move(f); }
 

@@ -105,7 +105,8 @@ class DatasetStream : public FrameStream {
 // ---- OpenCV VideoCapture: device, file, stream ---------------------------------
 class CaptureStream : public FrameStream {
  public:
-  CaptureStream(const SourceOptions& o, const PinholeCameraOptions& camera) : o_(o), camera_(camera) {
+  CaptureStream(const SourceOptions& o, const PinholeCameraOptions& camera, int64_t start_ns)
+      : o_(o), camera_(camera), start_ns_(start_ns) {
     const std::string& p = o_.path;
     is_device_ = p.rfind("/dev/", 0) == 0 || (!p.empty() && std::all_of(p.begin(), p.end(), ::isdigit));
     is_url_ = p.find("://") != std::string::npos;
@@ -220,6 +221,13 @@ class CaptureStream : public FrameStream {
         const double fps = o_.fps > 0 ? o_.fps : file_fps;
         frame_interval_ns_ = is_file_ && fps > 0 && std::isfinite(fps) ? static_cast<int64_t>(1e9 / fps) : 0;
         next_due_ns_ = 0;
+        // A restarted front on a video file goes on where the file is now,
+        // not at its start (rumid hands every front the session's start).
+        if (is_file_ && start_ns_ > 0 && !seeked_) {
+          const double elapsed_ms = static_cast<double>(SteadyNowNs() - start_ns_) * 1e-6;
+          if (elapsed_ms > 0) cap_.set(cv::CAP_PROP_POS_MSEC, elapsed_ms);
+          seeked_ = true;
+        }
         SetStatus("streaming");
         spdlog::info("source: {} open ({})", Describe(), cap_.getBackendName());
         reopen_at_ns_ = 0;
@@ -234,6 +242,8 @@ class CaptureStream : public FrameStream {
 
   SourceOptions o_;
   PinholeCamera camera_;
+  int64_t start_ns_ = 0;
+  bool seeked_ = false;
   cv::VideoCapture cap_;
   bool is_device_ = false, is_url_ = false, is_file_ = false;
   int64_t wall_minus_mono_ns_ = 0;
@@ -252,7 +262,7 @@ std::unique_ptr<FrameStream> OpenFrameStream(const StreamOpenOptions& o) {
   if (!o.source.Check(&why)) throw StreamError("source: " + why);
   if (o.source.kind == "dataset") return std::make_unique<DatasetStream>(o);
   if (!o.camera) throw StreamError("source.kind capture needs a camera: section (its calibration) in the config");
-  return std::make_unique<CaptureStream>(o.source, *o.camera);
+  return std::make_unique<CaptureStream>(o.source, *o.camera, o.start_ns);
 }
 
 }  // namespace rumi

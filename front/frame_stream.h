@@ -77,7 +77,9 @@ struct StreamOpenOptions {
   std::string config_path;
   // capture: the camera (required: a capture has no calibration of its own).
   const PinholeCameraOptions* camera = nullptr;
-  // dataset: clock time (steady, ns) at which the first frame is due; 0: now.
+  // Clock time (steady, ns) the session started: a dataset's first frame is
+  // due then; a video file is sought to now - start on open (a restarted
+  // front goes on where the stream is). 0: now.
   int64_t start_ns = 0;
 };
 

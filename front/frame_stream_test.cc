@@ -174,7 +174,8 @@ TEST(FrameStream, VideoFilePlaysAtItsRateWithGroundStationTimestamps) {
   for (size_t i = 1; i < t.size(); ++i) EXPECT_GT(t[i], t[i - 1]);
   // Paced at the file's 20 fps: 19 intervals of 50 ms (loose: a shared machine).
   EXPECT_GT(secs, 0.8);
-  EXPECT_NEAR(NsToSeconds(t.back() - t.front()), 0.95, 0.5);
+  EXPECT_GT(NsToSeconds(t.back() - t.front()), 0.85);  // never faster than the file; slower on a loaded machine
+  EXPECT_LT(NsToSeconds(t.back() - t.front()), 20.0);
   // Capture time on the ground station's wall clock.
   const double wall = std::chrono::duration<double>(wall0.time_since_epoch()).count();
   EXPECT_NEAR(NsToSeconds(t.front()), wall, 5.0);

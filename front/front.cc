@@ -108,6 +108,21 @@ std::optional<Se3> Front::PoseAt(Timestamp t) const {
   return Se3(q, (1 - s) * a.second.translation() + s * b.second.translation());
 }
 
+void Front::TrimFinished(size_t n) {
+  for (size_t i = trimmed_; i < std::min(n, finished_.size()); ++i) {
+    Submap& s = finished_[i];
+    for (Keyframe& kf : s.keyframes) {
+      kf.keypoints = {};
+      kf.octaves = {};
+      kf.point_ids = {};
+      kf.descriptors.release();
+    }
+    s.points = {};
+    s.odometry = {};
+  }
+  trimmed_ = std::max(trimmed_, std::min(n, finished_.size()));
+}
+
 FrameRecord Front::Track(Timestamp t, const cv::Mat& image) {
   const auto t0 = std::chrono::steady_clock::now();
   const double c0 = ThreadCpuMs();

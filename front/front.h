@@ -72,6 +72,11 @@ class Front {
   void Finish();
   Submap CurrentSubmap();                                  // snapshot
   const std::vector<Submap>& FinishedSubmaps() const { return finished_; }
+  // Drops the map of the first n finished submaps (keypoints, descriptors,
+  // map points), keeping their keyframe poses and frame records: a front that
+  // runs for hours holds only what its final files need once the publisher
+  // has copied them (rumid).
+  void TrimFinished(size_t n);
   const std::vector<SubmapLink>& links() const { return links_; }
   const std::vector<FrameRecord>& records() const { return records_; }
   const std::vector<FrameTiming>& timings() const { return timings_; }
@@ -146,6 +151,7 @@ class Front {
   std::vector<FrameRel> submap_frames_;
 
   std::vector<Submap> finished_;
+  size_t trimmed_ = 0;  // finished_[0, trimmed_) hold poses only
   std::vector<SubmapLink> links_;
   std::optional<SubmapLink> pending_link_;
   std::vector<FrameRecord> records_;

@@ -107,6 +107,8 @@ class FrontPublisher {
   bool Finish(const std::vector<Submap>& finished, bool stopping = false);
 
   FrontPublisherStats stats() const;
+  // Finished submaps copied for sending so far (the front may trim them).
+  size_t finished_taken() const { return finished_taken_; }
   // Polled by the publisher thread for its status reports (the frame
   // source's state: streaming, reconnecting, ...). Must be thread-safe.
   void SetSourceStatus(std::function<std::string()> status);

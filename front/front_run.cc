@@ -3,9 +3,11 @@
 #include <opencv2/core.hpp>
 #include <spdlog/spdlog.h>
 
+#include <chrono>
 #include <exception>
 #include <functional>
 #include <memory>
+#include <thread>
 #include <vector>
 
 #include "common/process/exit_codes.h"
@@ -41,8 +43,23 @@ int RunFront(const FrontRunOptions& o, const std::atomic<bool>* stop) {
     }
   }
 
-  // The front's own stop flag: the caller's, or a bad frame.
-  std::atomic<bool> stop_flag{false};
+  // The front's own stop flag: the caller's (mirrored here every 20 ms, so a
+  // stream waiting for a camera that is down notices a SIGTERM too).
+  std::atomic<bool> stop_flag{false}, done{false};
+  std::thread mirror([&] {
+    while (!done.load()) {
+      if (stop && stop->load()) stop_flag.store(true);
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  });
+  struct JoinMirror {
+    std::atomic<bool>* done;
+    std::thread* t;
+    ~JoinMirror() {
+      done->store(true);
+      t->join();
+    }
+  } join_mirror{&done, &mirror};
   auto stopped = [&] { return stop_flag.load() || (stop && stop->load()); };
   cv::setNumThreads(1);  // shared cores: OpenCV threads would fight tracking + mapping
   size_t n = 0, used = 0;
@@ -101,6 +118,7 @@ int RunFront(const FrontRunOptions& o, const std::atomic<bool>* stop) {
       const FrameTiming& tm = front.timings().back();
       pub.OnFrame(rec, frame.image, tm.total_ms, tm.cpu_ms, front.current_submap_keyframes(), front.FinishedSubmaps(),
                   snapshot);
+      front.TrimFinished(pub.finished_taken());  // the publisher holds its copies
       ++n;
       ++used;
     }

@@ -66,6 +66,10 @@ std::vector<std::string> ReclaimStaleSegments(const std::string& keep_instance) 
       keep_instance.empty() ? std::vector<std::string>() : InstanceSegmentNames(keep_instance);
   for (const SegmentInfo& i : ListRumiSegments()) {
     if (!i.readable || !i.stale) continue;
+    // Unread messages of a rumid instance wait for its restart; those of a
+    // `rumi eval run` (instance eval_<pid>_<k>) have nobody to come back.
+    const bool unread = i.stats.tail < i.stats.head;
+    if (unread && i.name.rfind("rumi_eval_", 0) != 0) continue;
     if (std::find(kept.begin(), kept.end(), i.name) != kept.end()) continue;
     if (RemoveSegment(i.name)) {
       spdlog::info("ipc: removed stale segment {} (producer pid {}, consumer pid {}: both gone)", i.name,

@@ -6,7 +6,9 @@
 // A segment is stale when no process that used it is alive: its producer and
 // its consumer (when one attached) are dead or were never recorded. A
 // killed `rumi eval run` or rumid leaves such segments; the next start of any
-// rumi supervisor reclaims them, and `rumi-ipc-status --reclaim` does it by hand.
+// rumi supervisor reclaims them (a rumid instance's stale segments that
+// still hold unread messages are left to that instance's next start), and
+// `rumi-ipc-status --reclaim` does it by hand.
 #include <string>
 #include <vector>
 

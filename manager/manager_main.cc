@@ -53,6 +53,7 @@ int Main(int argc, char** argv) {
   run.ipc = setup.config().ipc;
   run.ipc.instance = instance;
   run.producer_death_ends = !daemon;
+  if (daemon) run.finish = ProcessSignals::finish();
   std::string why;
   if (!run.ipc.Check(&why)) {
     spdlog::error("rumi-manager: --instance '{}': {}", instance, why);

@@ -39,10 +39,11 @@ struct Channel {
   uint64_t decode_errors = 0;
   Channel(const char* what, const IpcOptions& o, SubmapSource s, double wait_s)
       : source(s), rx(o, s), watch(what, wait_s) {}
-  bool ended(bool producer_death_ends) const {
+  bool ended(const ManagerRunOptions& run) const {
     const ProducerEnd e = watch.end();
-    return e == ProducerEnd::kClosed || e == ProducerEnd::kNeverAppeared ||
-           (e == ProducerEnd::kDied && producer_death_ends);
+    const bool finished = !run.finish || run.finish->load();
+    return ((e == ProducerEnd::kClosed || e == ProducerEnd::kNeverAppeared) && finished) ||
+           (e == ProducerEnd::kDied && run.producer_death_ends);
   }
 };
 
@@ -101,13 +102,17 @@ ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service
   auto last_rebuild = start - std::chrono::hours(1);
   ManagerExit result = ManagerExit::kProducersDone;
   std::string why;
-  const auto rebuild = [&]() {
+  // cancel: the stop flag while the loop runs (a rebuild on SIGTERM is
+  // abandoned whole); none for the final one.
+  const auto rebuild = [&](const std::atomic<bool>* cancel) {
     spdlog::info("manager: rebuild {} starting", service->stats().rebuilds + 1);
     notifier.Heartbeat(StatusJson(*service, "rebuilding"), /*force=*/true);
-    const bool ok = service->Rebuild(&why);
+    const bool ok = service->Rebuild(&why, cancel);
     last_rebuild = std::chrono::steady_clock::now();
-    if (!ok) spdlog::error("manager: {}", why);
-    return ok;
+    if (ok) return true;
+    if (stop && stop->load()) spdlog::info("manager: {}", why);  // nothing was changed
+    else spdlog::error("manager: {}", why);
+    return false;
   };
   for (;;) {
     if (stop && stop->load()) {
@@ -118,12 +123,12 @@ ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service
     bool got = false;
     // Finished channels are polled too: a restarted producer is read again.
     for (Channel* c : {&front, &back}) got |= PollChannel(c, service);
-    if (front.ended(run.producer_death_ends) && back.ended(run.producer_death_ends)) break;
+    if (front.ended(run) && back.ended(run)) break;
     if (service->dirty() && !got &&
         RebuildDue(run.loop, SecondsSince(last_rebuild), service->stats().last_rebuild_seconds)) {
       // Rebuild once the burst is read (got == false: the rings are empty now).
       // A rebuild that cannot save is logged; the loop goes on, nothing received is dropped.
-      rebuild();
+      rebuild(stop);
     } else if (service->unsaved() && !got && SecondsSince(last_rebuild) >= std::max(10.0, run.loop.rebuild_interval_s)) {
       // A full disk: try again every 10 s, not every turn.
       last_rebuild = std::chrono::steady_clock::now();
@@ -147,7 +152,7 @@ ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service
   notifier.Stopping();
   const bool quick = service->stats().last_rebuild_seconds <= run.loop.stop_rebuild_max_s;
   if (service->dirty() && (result != ManagerExit::kStopped || quick)) {
-    if (!rebuild()) return ManagerExit::kError;
+    if (!rebuild(nullptr)) return ManagerExit::kError;
   } else if (service->dirty()) {
     spdlog::info("manager: last rebuild took {:.1f} s: saving the received submaps, the next start rebuilds",
                  service->stats().last_rebuild_seconds);

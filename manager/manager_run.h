@@ -40,6 +40,9 @@ struct ManagerRunOptions {
   // `rumi eval run`: a producer that died is finished. rumid: it is
   // restarted, so the manager waits for it.
   bool producer_death_ends = true;
+  // rumid: closed channels end the manager only once this is set (SIGUSR1:
+  // the source ended and the back finished); nullptr: closed channels end it.
+  const std::atomic<bool>* finish = nullptr;
 };
 
 // Whether a rebuild may start `since_last_s` after the last one ended, which

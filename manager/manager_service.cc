@@ -264,15 +264,23 @@ void ManagerService::UpdateCounts() {
   stats_.merges = int(map_.size()) - stats_.components;
 }
 
-bool ManagerService::Rebuild(std::string* why) {
+bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel) {
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<SubmapKey> replaced;
   for (const auto& kv : received_) replaced.push_back(kv.first);
   GlobalMap map = CopyWithout(base_, replaced);
   for (const auto& kv : received_) map.AddSubmap(kv.second);
-  stats_.reports = MergeAll(&map, options_.manager, &merge_memo_);
-  for (MergeReport& r : PlaceMergeAll(&map, options_.manager, &place_memo_, &merge_memo_))
-    stats_.reports.push_back(std::move(r));
+  const auto abandoned = [&] {
+    if (!(cancel && cancel->load())) return false;
+    if (why) *why = "rebuild abandoned: stop requested";
+    return true;
+  };
+  std::vector<MergeReport> reports = MergeAll(&map, options_.manager, &merge_memo_, cancel);
+  if (abandoned()) return false;
+  for (MergeReport& r : PlaceMergeAll(&map, options_.manager, &place_memo_, &merge_memo_, cancel))
+    reports.push_back(std::move(r));
+  if (abandoned()) return false;
+  stats_.reports = std::move(reports);
   for (MergeReport& r : OdometryMergeAll(&map, options_.manager)) stats_.reports.push_back(std::move(r));
   stats_.merges_replayed = merge_memo_.hits();
   stats_.merge_attempts = int(stats_.reports.size());

@@ -82,8 +82,10 @@ class ManagerService {
   bool unsaved() const { return unsaved_; }
 
   // Rebuilds the global map from the base and all received submaps, culls,
-  // then writes the outputs. False (with why) when an output cannot be written.
-  bool Rebuild(std::string* why);
+  // then writes the outputs. False (with why) when an output cannot be
+  // written, or when *cancel was set (SIGTERM): then the rebuild is abandoned
+  // whole, the map and the files stay as they were, and the state stays dirty.
+  bool Rebuild(std::string* why, const std::atomic<bool>* cancel = nullptr);
   // Writes map file (atomic), merged.txt, merged_<k>.txt (one per component,
   // largest first, merged_0 == merged.txt), manager_stats.json (all atomic).
   bool WriteOutputs(std::string* why);

@@ -124,7 +124,8 @@ MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& sear
   return r;
 }
 
-std::vector<MergeReport> MergeAll(GlobalMap* map, const ManagerOptions& options, MergeMemo* memo) {
+std::vector<MergeReport> MergeAll(GlobalMap* map, const ManagerOptions& options, MergeMemo* memo,
+                                  const std::atomic<bool>* cancel) {
   std::vector<const Submap*> fronts, backs;
   for (size_t i = 0; i < map->size(); ++i)
     (map->submap(int(i)).source == SubmapSource::kBack ? backs : fronts).push_back(&map->submap(int(i)));
@@ -139,6 +140,7 @@ std::vector<MergeReport> MergeAll(GlobalMap* map, const ManagerOptions& options,
       for (size_t b = 0; b < map->size(); ++b) {
         if (map->submap(int(b)).source != SubmapSource::kBack || map->Connected(int(f), int(b))) continue;
         if (std::find(tried.begin(), tried.end(), std::make_pair(f, b)) != tried.end()) continue;
+        if (cancel && cancel->load()) break;
         tried.emplace_back(f, b);
         reports.push_back(memo ? memo->Merge(map, int(f), int(b), search, options)
                                : MergePair(map, int(f), int(b), search, options));

@@ -3,6 +3,7 @@
 // -> M_com -> initial Sim(3) -> Formula 8 refinement -> Sim(3)s of the global
 // map updated (the smaller component moves) -> fuse M_com duplicates ->
 // welding-window BA.
+#include <atomic>
 #include <string>
 #include <vector>
 
@@ -43,7 +44,10 @@ MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& sear
 // no merge succeeds (so chains A <-> back <-> B close), with F^search built
 // from all submaps. With a memo, attempts it holds are replayed (merge_memo.h)
 // and the memo keeps this run's attempts.
-std::vector<MergeReport> MergeAll(GlobalMap* map, const ManagerOptions& options, MergeMemo* memo = nullptr);
+// *cancel (optional) is checked before each pair: set, the run ends early
+// (the caller throws the map away: a rebuild abandoned on SIGTERM).
+std::vector<MergeReport> MergeAll(GlobalMap* map, const ManagerOptions& options, MergeMemo* memo = nullptr,
+                                  const std::atomic<bool>* cancel = nullptr);
 
 // Sets the reason and logs "<kind> A <-> B rejected: why".
 MergeReport RejectMerge(MergeReport r, const char* kind, const std::string& why);

@@ -142,7 +142,7 @@ MergeReport PlaceMergePair(GlobalMap* map, int a, int b, const ManagerOptions& o
 }
 
 std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& options, PlaceMergeMemo* memo,
-                                       MergeMemo* merge_memo) {
+                                       MergeMemo* merge_memo, const std::atomic<bool>* cancel) {
   std::vector<MergeReport> reports;
   if (!options.place_merge) return reports;
   if (merge_memo) merge_memo->BeginPlaceRun(*map);
@@ -154,6 +154,7 @@ std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& opt
       for (int j = i + 1; j < int(map->size()); ++j) {
         if (map->submap(j).source != SubmapSource::kFront || map->Connected(i, j)) continue;
         if (std::find(tried.begin(), tried.end(), std::make_pair(i, j)) != tried.end()) continue;
+        if (cancel && cancel->load()) break;
         tried.emplace_back(i, j);
         if (memo && memo->Rejected(map->submap(i), map->submap(j))) continue;
         reports.push_back(merge_memo ? merge_memo->Place(map, i, j, options) : PlaceMergePair(map, i, j, options));

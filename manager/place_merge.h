@@ -9,6 +9,7 @@
 // larger side fixed, and the merge then goes on as a back merge does (fuse,
 // welding BA). Strict thresholds: a wrong place merge would bend the map,
 // a missed one only leaves two components.
+#include <atomic>
 #include <set>
 #include <tuple>
 #include <vector>
@@ -57,7 +58,9 @@ class PlaceMergeMemo {
 // no merge succeeds. No-op when options.place_merge is off. With a memo,
 // pairs it holds are skipped and new rejections are added to it. With a
 // merge memo, attempts on unchanged submaps are replayed (merge_memo.h).
+// *cancel: as MergeAll's.
 std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& options,
-                                       PlaceMergeMemo* memo = nullptr, MergeMemo* merge_memo = nullptr);
+                                       PlaceMergeMemo* memo = nullptr, MergeMemo* merge_memo = nullptr,
+                                       const std::atomic<bool>* cancel = nullptr);
 
 }  // namespace rumi

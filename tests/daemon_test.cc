@@ -183,7 +183,7 @@ TEST_F(Daemon, NotifyProtocolWatchdogHangupAndABoundedStop) {
   const double stop_s = Since(t_term);
   pid_ = -1;
   EXPECT_EQ(rc, 0) << Slurp(log);
-  EXPECT_LT(stop_s, 10.5);
+  EXPECT_LT(stop_s, 12.0);  // daemon.stop_timeout_s (10 s), then what is left is killed
   std::printf("rumid stopped %.2f s after SIGTERM\n", stop_s);
   EXPECT_TRUE(stopping) << "no STOPPING=1";
   for (pid_t c : children) EXPECT_FALSE(ProcessRunning(c)) << "child " << c << " outlived rumid";

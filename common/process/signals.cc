@@ -10,6 +10,7 @@ namespace {
 std::atomic<bool> g_stop{false};
 std::atomic<int> g_stop_signal{0};
 std::atomic<bool> g_reload{false};
+std::atomic<bool> g_finish{false};
 std::atomic<bool> g_installed{false};
 
 void OnStop(int sig) {
@@ -24,6 +25,8 @@ void OnStop(int sig) {
 
 void OnHangup(int) { g_reload.store(true); }
 
+void OnFinish(int) { g_finish.store(true); }
+
 }  // namespace
 
 void ProcessSignals::Install() {
@@ -35,6 +38,8 @@ void ProcessSignals::Install() {
   sigaction(SIGTERM, &sa, nullptr);
   sa.sa_handler = OnHangup;
   sigaction(SIGHUP, &sa, nullptr);
+  sa.sa_handler = OnFinish;
+  sigaction(SIGUSR1, &sa, nullptr);
   sa.sa_handler = SIG_IGN;
   sigaction(SIGPIPE, &sa, nullptr);
 }
@@ -44,6 +49,8 @@ const std::atomic<bool>* ProcessSignals::stop() { return &g_stop; }
 int ProcessSignals::stop_signal() { return g_stop_signal.load(); }
 
 bool ProcessSignals::TakeReload() { return g_reload.exchange(false); }
+
+const std::atomic<bool>* ProcessSignals::finish() { return &g_finish; }
 
 ReloadOnHangup::ReloadOnHangup(std::function<void()> on_reload)
     : thread_([this, f = std::move(on_reload)] {

@@ -5,6 +5,9 @@
 //    (the default action: every save is atomic, nothing half-written stays).
 //  - SIGHUP: sets the reload flag: re-read the config and apply what can
 //    change live (the log level).
+//  - SIGUSR1: sets the finish flag: rumid's "the source ended": a back or a
+//    manager run by rumid ends once its producers closed and its work is done
+//    (without it they wait for a producer that may be restarted).
 //  - SIGPIPE is ignored (a vanished socket peer is an error return, not death).
 #include <atomic>
 #include <functional>
@@ -22,6 +25,8 @@ class ProcessSignals {
   static int stop_signal();
   // True once per SIGHUP received since the last call.
   static bool TakeReload();
+  // The finish flag (set by SIGUSR1).
+  static const std::atomic<bool>* finish();
 };
 
 // Calls on_reload (on its own thread) after each SIGHUP, until destroyed.

@@ -164,7 +164,10 @@ pid_t SpawnChild(const SpawnOptions& o, std::string* why) {
       ::dup2(log_fd, STDERR_FILENO);
     }
     const int devnull = ::open("/dev/null", O_RDONLY);
-    if (devnull >= 0) ::dup2(devnull, STDIN_FILENO);
+    if (devnull >= 0) {
+      ::dup2(devnull, STDIN_FILENO);
+      if (devnull != STDIN_FILENO) ::close(devnull);
+    }
     ::execvpe(argv[0], argv.data(), envp.data());
     const int e = errno;
     ssize_t w = ::write(err_pipe[1], &e, sizeof(e));

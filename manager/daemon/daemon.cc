@@ -169,7 +169,7 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
   const int64_t replay_start_ns = SteadyNowNs() + 2'000'000'000LL;
   std::vector<std::string> front_argv = {o.bin_dir + "/rumi-front", "--instance", o.instance, "--out",
                                          layout.Front(), "--daemon", "--first-submap-id", "0"};
-  if (c.source.kind == "dataset") front_argv.insert(front_argv.end(), {"--replay-start-ns", std::to_string(replay_start_ns)});
+  front_argv.insert(front_argv.end(), {"--replay-start-ns", std::to_string(replay_start_ns)});
   if (o.source_overridden) {
     front_argv.insert(front_argv.end(), {"--dataset", c.source.dataset, c.source.path});
     if (!c.source.calibration.empty()) front_argv.insert(front_argv.end(), {"--calibration", c.source.calibration});
@@ -244,6 +244,7 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
   }
 
   bool ready_sent = false, source_ended = false;
+  pid_t back_told = -1, manager_told = -1;  // told the source ended (SIGUSR1)
   auto last_watchdog = Clock::now() - std::chrono::hours(1);
   auto last_status = last_watchdog;
   while (started_all && failure.empty() && !(stop && stop->load())) {
@@ -279,6 +280,22 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
       spdlog::info("rumid: ready (front, back and manager up, map loaded)");
     }
     if (source_ended && state == "running") state = "finishing";
+    // The source ended: the back finishes its windows, then the manager its
+    // map (SIGUSR1 each, once per process, once it is up).
+    if (source_ended) {
+      const ChildInfo& b = sup.info(back);
+      if (b.state == ChildState::kRunning && b.ready && b.pid != back_told) {
+        sup.Signal(back, SIGUSR1);
+        back_told = b.pid;
+      }
+      const bool back_done = b.state == ChildState::kExited && WIFEXITED(b.last_status) &&
+                             WEXITSTATUS(b.last_status) == kExitDone;
+      const ChildInfo& m = sup.info(manager);
+      if (back_done && m.state == ChildState::kRunning && m.ready && m.pid != manager_told) {
+        sup.Signal(manager, SIGUSR1);
+        manager_told = m.pid;
+      }
+    }
     // WATCHDOG=1 only while every child is alive and the manager's loop turns.
     if (watchdog && Since(last_watchdog) * 2e6 >= static_cast<double>(watchdog_usec)) {
       bool healthy = sup.Alive(manager) && sup.info(manager).state == ChildState::kRunning &&
@@ -309,8 +326,14 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
   publish();
   const auto t_stop = Clock::now();
   sup.StopAll({front, back, manager}, d.stop_timeout_s);
-  for (const std::string& name : RemoveInstanceSegments(o.instance, /*force=*/true))
-    spdlog::debug("rumid: removed {}", name);
+  // Drained segments go; one that still holds messages (a manager stopped
+  // before it read them) stays for the next start, which reads it.
+  for (const std::string& name : InstanceSegmentNames(o.instance)) {
+    RingStats rs;
+    if (!ReadRingStats(name, &rs)) continue;
+    if (rs.tail >= rs.head) RemoveSegment(name);
+    else spdlog::warn("rumid: {} keeps {} unread message(s) for the next start", name, rs.head - rs.tail);
+  }
   if (failure.empty()) state = "stopped";
   publish();
   spdlog::info("rumid: {} in {:.1f} s", failure.empty() ? "stopped" : "failed", Since(t_stop));
