@@ -110,7 +110,19 @@ TEST(ChannelsCrossProcess, ConsumerKilledAndRestartedProducerNeverWaits) {
         kill(consumer, SIGKILL);
         waitpid(consumer, nullptr, 0);
       }
-      if (i == kRestartAt) consumer = StartConsumer(o, fds[1], 0);
+      if (i == kRestartAt) {
+        consumer = StartConsumer(o, fds[1], 0);
+        // Let the new consumer drain what the ring held before the producer
+        // goes on, so that something published after the restart reaches it
+        // however slowly the fork is scheduled (CI under load). The pushes
+        // themselves stay unblocked; only this harness waits.
+        const auto drained_by = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+        while (std::chrono::steady_clock::now() < drained_by &&
+               (ws.ring().Stats().tail < ws.ring().Stats().head ||
+                ss.ring().Stats().tail < ss.ring().Stats().head)) {
+          std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        }
+      }
       const auto t0 = std::chrono::steady_clock::now();
       const PushStatus a = ws.Send(windows[i]);
       const PushStatus b = ss.Send(submaps[i]);
