@@ -34,6 +34,7 @@ RumiConfig Load(ConfigSection root, const std::string& file) {
     ReadOptions(m, &c.manager);
     ReadOptions(m, &c.manager_loop);
   }
+  ReadSection(root, "grid", &c.grid);
   ReadSection(root, "ipc", &c.ipc);
   ReadSection(root, "daemon", &c.daemon);
   root.Finish();
@@ -75,6 +76,7 @@ std::vector<ConfigSectionInfo> DescribeRumiConfig(const RumiConfig& c) {
   Describe(&out, "back", c.back);
   Describe(&out, "manager", c.manager);
   Describe(&out, "manager", c.manager_loop);
+  Describe(&out, "grid", c.grid);
   Describe(&out, "ipc", c.ipc);
   Describe(&out, "daemon", c.daemon);
   return out;

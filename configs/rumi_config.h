@@ -14,6 +14,7 @@
 //   publisher: FrontPublisherOptions      front/front_publisher.h
 //   back:      BackOptions                back/back_options.h
 //   manager:   ManagerOptions + ManagerLoopOptions   manager/manager_options.h, manager_run.h
+//   grid:      GridOptions                manager/grid/grid_builder.h
 //   ipc:       IpcOptions                 ipc/channels.h
 //   daemon:    DaemonOptions              manager/daemon/daemon_options.h
 #include <string>
@@ -27,6 +28,7 @@
 #include "front/sampler.h"
 #include "ipc/channels.h"
 #include "manager/daemon/daemon_options.h"
+#include "manager/grid/grid_builder.h"
 #include "manager/manager_options.h"
 #include "manager/manager_run.h"
 
@@ -44,6 +46,7 @@ struct RumiConfig {
   BackOptions back;
   ManagerOptions manager;
   ManagerLoopOptions manager_loop;
+  GridOptions grid;
   IpcOptions ipc;
   DaemonOptions daemon;
 };

@@ -48,6 +48,18 @@ TEST(Cli, EvalAteMissingFileIsAClearError) {
   EXPECT_NE(r.out.find("/nonexistent/est.txt"), std::string::npos) << r.out;
 }
 
+TEST(Cli, GridBadInputIsAClearError) {
+  Result r = RunRumi("grid /nonexistent/state");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("/nonexistent/state: no such folder or map file"), std::string::npos) << r.out;
+  const fs::path cfg = fs::temp_directory_path() / ("rumi_cli_grid_" + std::to_string(::getpid()) + ".yaml");
+  std::ofstream(cfg) << "grid: {resolution_m: 0, ism: {p_occ: 0.95}}\n";
+  r = RunRumi("grid /nonexistent/state --config " + cfg.string());
+  fs::remove(cfg);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("resolution_m"), std::string::npos) << r.out;
+}
+
 TEST(Cli, EvalTablePrintsPaperLayout) {
   const fs::path dir = fs::temp_directory_path() / ("rumi_cli_test_" + std::to_string(getpid()));
   fs::create_directories(dir / "drop" / "run_01");

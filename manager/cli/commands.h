@@ -11,5 +11,6 @@ void AddEvalRunCommand(CLI::App* eval);     // eval_run_command.cc: under `eval`
 void AddEvalSessionCommand(CLI::App* eval); // eval_run_command.cc: a rumid session
 void RegisterStatusCommand(CLI::App* app);  // status_command.cc
 void RegisterConfigCommand(CLI::App* app);  // config_command.cc
+void RegisterGridCommand(CLI::App* app);    // grid_command.cc
 
 }  // namespace rumi::cli

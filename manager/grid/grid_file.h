@@ -1,0 +1,48 @@
+#pragma once
+// The grid as ROS map_server files: an 8-bit binary PGM (254 free, 0
+// occupied, 205 unknown; first row = largest y) and a YAML beside it
+// (image, resolution, origin, negate 0, occupied_thresh 0.65, free_thresh
+// 0.196, mode trinary), plus what rumi adds under keys map_server ignores
+// (the scale and "up" used, the map-to-grid transform). Read back by
+// ReadMapServerGrid the way map_server interprets it.
+#include <Eigen/Core>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "manager/grid/occupancy_grid.h"
+
+namespace rumi {
+
+constexpr uint8_t kPgmFree = 254, kPgmOccupied = 0, kPgmUnknown = 205;
+constexpr double kOccupiedThresh = 0.65, kFreeThresh = 0.196;
+
+// A map_server grid as loaded from its YAML + image.
+struct MapServerGrid {
+  std::string image;  // as written in the YAML (relative to the YAML's folder)
+  double resolution = 0;
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();  // x, y, yaw of the lower-left pixel
+  int negate = 0;
+  double occupied_thresh = kOccupiedThresh, free_thresh = kFreeThresh;
+  std::string mode = "trinary";
+  int width = 0, height = 0;
+  std::vector<uint8_t> pixels;  // row-major, row 0 = top (largest y)
+  // map_server's reading of a cell (col, row from the bottom, as the grid's).
+  CellState State(int col, int row) const;
+};
+
+// Writes <pgm_path> and <yaml_path> (atomic each); the YAML names the PGM by
+// its file name. `extra` holds additional YAML lines ("key: value").
+bool WriteMapServerGrid(const OccupancyGrid& grid, const std::string& pgm_path, const std::string& yaml_path,
+                        const std::vector<std::string>& extra, std::string* why);
+// Loads a YAML and the image it names; false with *why naming the file and
+// the problem (missing key, bad header, size mismatch).
+bool ReadMapServerGrid(const std::string& yaml_path, MapServerGrid* out, std::string* why);
+
+// A PNG preview: free white, occupied black, unknown grey, the trajectory
+// (grid-frame x, y) drawn in red, its start green.
+bool WriteGridPreview(const OccupancyGrid& grid, const std::vector<Eigen::Vector2d>& trajectory,
+                      const std::string& png_path, std::string* why);
+
+}  // namespace rumi
