@@ -242,6 +242,15 @@ void ReceiveLoop(const BackRunOptions& o, WindowReceiver* rx, SubmapSender* tx, 
       continue;
     }
     if (StreamOver(o, watch.end())) break;
+    // Under rumid, the source ended (the front exited for good) and no
+    // window channel is left: a back restarted after the front closed and
+    // removed a drained channel would otherwise wait for it forever.
+    if (o.finish && o.finish->load() && st == PopStatus::kNotConnected) {
+      spdlog::info("back: the source ended and no window channel is left: nothing more will come");
+      std::lock_guard<std::mutex> l(sh->mutex);
+      sh->producer_end = ProducerEnd::kClosed;
+      break;
+    }
     if (st != PopStatus::kEmpty) std::this_thread::sleep_for(std::chrono::milliseconds(20));
     // The manager (consumer of our submaps) gone and not back: nobody to work for.
     if (std::chrono::duration<double>(Clock::now() - last_peer_check).count() > 0.5) {

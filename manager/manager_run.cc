@@ -37,12 +37,17 @@ struct Channel {
   SubmapReceiver rx;
   ProducerWatch watch;
   uint64_t decode_errors = 0;
+  PopStatus last = PopStatus::kNotConnected;
   Channel(const char* what, const IpcOptions& o, SubmapSource s, double wait_s)
       : source(s), rx(o, s), watch(what, wait_s) {}
   bool ended(const ManagerRunOptions& run) const {
     const ProducerEnd e = watch.end();
     const bool finished = !run.finish || run.finish->load();
-    return ((e == ProducerEnd::kClosed || e == ProducerEnd::kNeverAppeared) && finished) ||
+    // Under rumid, finish means the front and the back are done for good: a
+    // channel with no segment left (closed, drained and removed before this
+    // manager restarted) has nothing more to bring.
+    const bool gone = run.finish && finished && last == PopStatus::kNotConnected;
+    return ((e == ProducerEnd::kClosed || e == ProducerEnd::kNeverAppeared) && finished) || gone ||
            (e == ProducerEnd::kDied && run.producer_death_ends);
   }
 };
@@ -59,6 +64,7 @@ bool PollChannel(Channel* c, ManagerService* service) {
     c->decode_errors = c->rx.decode_errors();
   }
   c->watch.Update(c->rx.ring(), st, closed_before);
+  c->last = st;
   if (st != PopStatus::kOk) return false;
   if (s.source != c->source) {
     spdlog::warn("manager: {} channel delivered a submap marked {}; taken as it is marked",
@@ -141,7 +147,9 @@ ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service
     notifier.Heartbeat(StatusJson(*service, "idle"));
     if (!got) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
-  if (!front.watch.seen() && !back.watch.seen() && result == ManagerExit::kProducersDone)
+  // Under rumid (finish) a restarted manager may see no producer at all: an
+  // earlier one took what they sent (the journal has it). That is done.
+  if (!run.finish && !front.watch.seen() && !back.watch.seen() && result == ManagerExit::kProducersDone)
     result = ManagerExit::kNoProducer;
   if (result == ManagerExit::kStopped) {
     // What the producers sent before they stopped (rumid stops them first).

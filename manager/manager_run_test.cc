@@ -61,6 +61,38 @@ TEST(ManagerRun, LoopEndsWhenNoProducerAppearsOrOnStop) {
   t.join();
 }
 
+TEST(ManagerRun, UnderRumidTheSourceEndedAndNoChannelLeftEndsTheLoop) {
+  // A manager restarted after the front and the back closed and removed
+  // their channels: rumid's SIGUSR1 (finish) must end it, not leave it
+  // waiting forever for producers that are done (wait_for_producers_s 0).
+  TempDir dir;
+  std::string why;
+  ManagerRunOptions run;
+  run.service.out_dir = dir.str();
+  ManagerService svc(run.service);
+  ASSERT_TRUE(svc.Start(&why)) << why;
+  run.ipc.instance = "mgrfin_" + std::to_string(::getpid());
+  run.loop.wait_for_producers_s = 0;  // as under rumid: a producer may be restarting
+  std::atomic<bool> finish{false}, stop{false};
+  run.finish = &finish;
+  ManagerExit result = ManagerExit::kError;
+  std::thread loop([&] { result = RunManagerLoop(run, &svc, &stop); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  finish = true;
+  const auto t0 = std::chrono::steady_clock::now();
+  std::thread guard([&] {  // a loop that never ends is stopped, and fails below
+    while (!stop && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(30))
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    stop = true;
+  });
+  loop.join();
+  const bool ended_by_itself = !stop;
+  stop = true;
+  guard.join();
+  EXPECT_TRUE(ended_by_itself);
+  EXPECT_EQ(result, ManagerExit::kProducersDone);
+}
+
 TEST(ManagerRun, LoopConsumesInProcessProducers) {
   const auto s = testing::MakeScenario();
   TempDir dir;

@@ -12,5 +12,6 @@ void AddEvalSessionCommand(CLI::App* eval); // eval_run_command.cc: a rumid sess
 void RegisterStatusCommand(CLI::App* app);  // status_command.cc
 void RegisterConfigCommand(CLI::App* app);  // config_command.cc
 void RegisterGridCommand(CLI::App* app);    // grid_command.cc
+void AddEvalGridCommand(CLI::App* eval);    // grid_command.cc: under `eval`
 
 }  // namespace rumi::cli

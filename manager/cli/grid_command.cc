@@ -10,7 +10,9 @@
 #include "common/trajectory.h"
 #include "configs/rumi_config.h"
 #include "manager/cli/commands.h"
+#include "common/trajectory_eval.h"
 #include "manager/grid/grid_file.h"
+#include "manager/grid/grid_score.h"
 #include "manager/map_file.h"
 #include "manager/map_grid.h"
 
@@ -115,6 +117,46 @@ void RegisterGridCommand(CLI::App* app) {
               << ", camera " << Fixed(frame.camera_height_m, 3) << " m above the floor; " << Fixed(stats.seconds, 3)
               << " s\n"
               << "wrote " << (out / "grid.yaml").string() << ", grid.pgm, grid.png, grid_trajectory.txt\n";
+  });
+}
+
+void AddEvalGridCommand(CLI::App* eval) {
+  struct Args {
+    std::string run, sequence;
+    bool json = false;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* cmd = eval->add_subcommand(
+      "grid", "score a grid (rumi grid's output) against a generated sequence's true floor plan: IoU and coverage");
+  cmd->add_option("run", a->run, "folder holding grid.yaml and grid_trajectory.txt")->required();
+  cmd->add_option("sequence", a->sequence, "the `rumi synth` folder (floorplan.yaml, groundtruth.txt)")->required();
+  cmd->add_flag("--json", a->json, "one JSON object");
+  cmd->callback([a] {
+    const fs::path run = a->run, seq = a->sequence;
+    MapServerGrid est, truth;
+    std::string why;
+    if (!ReadMapServerGrid((run / "grid.yaml").string(), &est, &why)) Fail(why);
+    if (!ReadMapServerGrid((seq / "floorplan.yaml").string(), &truth, &why)) Fail(why);
+    AteResult fit;
+    try {
+      fit = ComputeAte(ReadTumTrajectory((run / "grid_trajectory.txt").string()),
+                       ReadTumTrajectory((seq / "groundtruth.txt").string()), AteOptions());
+    } catch (const std::exception& e) {
+      Fail(std::string("aligning the grid's trajectory to the ground truth: ") + e.what());
+    }
+    const GridScore g = ScoreGrid(est, truth, fit.S_gt_est.Inverse());
+    if (a->json) {
+      std::cout << "{\"occupied_iou\": " << Fixed(g.occupied_iou, 4) << ", \"free_iou\": " << Fixed(g.free_iou, 4)
+                << ", \"coverage\": " << Fixed(g.coverage, 4) << ", \"true_free_cells\": " << g.true_free
+                << ", \"true_occupied_cells\": " << g.true_occupied << ", \"observed_cells\": " << g.observed
+                << ", \"alignment_scale\": " << Fixed(fit.S_gt_est.scale(), 4)
+                << ", \"alignment_rmse_m\": " << Fixed(fit.translation.rmse, 4) << "}\n";
+    } else {
+      std::cout << "occupied IoU " << Fixed(g.occupied_iou, 3) << ", free IoU " << Fixed(g.free_iou, 3)
+                << " (observed area), coverage of the true free space " << Fixed(100 * g.coverage, 1) << " %; "
+                << g.observed << " cells compared; trajectory aligned with scale "
+                << Fixed(fit.S_gt_est.scale(), 3) << ", RMSE " << Fixed(fit.translation.rmse, 3) << " m\n";
+    }
   });
 }
 

@@ -11,6 +11,7 @@ int main(int argc, char** argv) {
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, off");
   rumi::cli::RegisterEvalCommands(&app);
   rumi::cli::AddEvalTableCommand(app.get_subcommand("eval"));
+  rumi::cli::AddEvalGridCommand(app.get_subcommand("eval"));
   rumi::cli::AddEvalRunCommand(app.get_subcommand("eval"));
   rumi::cli::AddEvalSessionCommand(app.get_subcommand("eval"));
   rumi::cli::RegisterSynthCommand(&app);

@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+#include <filesystem>
 #include <cstdio>
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
@@ -11,9 +12,40 @@
 #include "common/synth/synth_calibration.h"
 #include "common/synth/synthetic_sequence.h"
 #include "manager/cli/commands.h"
+#include "manager/grid/grid_builder.h"
+#include "manager/grid/grid_score.h"
 
 namespace rumi::cli {
 namespace {
+namespace fs = std::filesystem;
+
+// The scene's true floor plan (walls and furniture cut at the grid's robot
+// band), as a map_server grid beside the sequence: what `rumi eval grid`
+// scores a grid against.
+bool WriteFloorPlan(const SynthOptions& o, const std::string& out) {
+  const SyntheticSequence seq(o);
+  const GridOptions g;
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(1e9), hi = -lo;
+  for (const auto& [a, b] : seq.scene().free_space) {
+    lo = lo.cwiseMin(a.head<2>());
+    hi = hi.cwiseMax(b.head<2>());
+  }
+  if (!(lo.x() < hi.x())) return true;  // no free space declared: nothing to draw
+  const MapServerGrid plan =
+      RasterizeFloorPlan([&](const Eigen::Vector3d& p) { return seq.scene().Clearance(p); },
+                         lo.array() - 0.5, hi.array() + 0.5, g.cells.resolution_m, g.floor_band_m, g.robot_height_m);
+  std::string why;
+  const std::string band = "rumi_band_m: [" + std::to_string(g.floor_band_m) + ", " +
+                           std::to_string(g.robot_height_m) + "]";
+  if (!WriteMapServerGrid(plan, (fs::path(out) / "floorplan.pgm").string(),
+                          (fs::path(out) / "floorplan.yaml").string(),
+                          {"# rumi synth: the true floor plan, world frame (groundtruth.txt)", band}, &why)) {
+    spdlog::error("synth: {}", why);
+    return false;
+  }
+  return true;
+}
+
 
 struct SynthArgs {
   std::string out;
@@ -83,6 +115,7 @@ int RunSynth(SynthArgs& a) {
     const SynthWriteResult r = SynthesizeSequence(a.o, a.out);
     spdlog::info("synth: wrote {} frames ({} dropped) to {} in {:.1f} s; path {:.2f} m", r.frames_written,
                  r.frames_dropped, a.out, r.render_seconds, r.path_length_m);
+    if (!WriteFloorPlan(a.o, a.out)) return 1;
   } catch (const std::exception& e) {
     spdlog::error("synth: {}", e.what());
     return 1;

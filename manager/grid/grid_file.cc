@@ -63,29 +63,43 @@ CellState MapServerGrid::State(int col, int row) const {
   return CellState::kUnknown;
 }
 
-bool WriteMapServerGrid(const OccupancyGrid& grid, const std::string& pgm_path, const std::string& yaml_path,
+MapServerGrid ToMapServerGrid(const OccupancyGrid& grid) {
+  MapServerGrid g;
+  g.resolution = grid.resolution();
+  g.origin = Eigen::Vector3d(grid.origin().x(), grid.origin().y(), 0);
+  g.width = grid.width();
+  g.height = grid.height();
+  g.pixels = Pixels(grid);
+  return g;
+}
+
+bool WriteMapServerGrid(const MapServerGrid& g, const std::string& pgm_path, const std::string& yaml_path,
                         const std::vector<std::string>& extra, std::string* why) {
-  if (grid.width() == 0 || grid.height() == 0) {
+  if (g.width == 0 || g.height == 0) {
     *why = "the grid is empty: nothing was observed";
     return false;
   }
-  const std::string header = "P5\n# rumi occupancy grid\n" + std::to_string(grid.width()) + " " +
-                             std::to_string(grid.height()) + "\n255\n";
+  const std::string header =
+      "P5\n# rumi occupancy grid\n" + std::to_string(g.width) + " " + std::to_string(g.height) + "\n255\n";
   std::vector<uint8_t> bytes(header.begin(), header.end());
-  const std::vector<uint8_t> px = Pixels(grid);
-  bytes.insert(bytes.end(), px.begin(), px.end());
+  bytes.insert(bytes.end(), g.pixels.begin(), g.pixels.end());
   if (!WriteFileAtomically(pgm_path, bytes, why)) return false;
   std::ostringstream y;
   y.precision(10);
   y << "image: " << fs::path(pgm_path).filename().string() << "\n"
-    << "mode: trinary\n"
-    << "resolution: " << grid.resolution() << "\n"
-    << "origin: [" << grid.origin().x() << ", " << grid.origin().y() << ", 0.0]\n"
-    << "negate: 0\n"
-    << "occupied_thresh: " << kOccupiedThresh << "\n"
-    << "free_thresh: " << kFreeThresh << "\n";
+    << "mode: " << g.mode << "\n"
+    << "resolution: " << g.resolution << "\n"
+    << "origin: [" << g.origin.x() << ", " << g.origin.y() << ", " << g.origin.z() << "]\n"
+    << "negate: " << g.negate << "\n"
+    << "occupied_thresh: " << g.occupied_thresh << "\n"
+    << "free_thresh: " << g.free_thresh << "\n";
   for (const std::string& line : extra) y << line << "\n";
   return WriteFileAtomically(yaml_path, y.str(), why);
+}
+
+bool WriteMapServerGrid(const OccupancyGrid& grid, const std::string& pgm_path, const std::string& yaml_path,
+                        const std::vector<std::string>& extra, std::string* why) {
+  return WriteMapServerGrid(ToMapServerGrid(grid), pgm_path, yaml_path, extra, why);
 }
 
 bool ReadMapServerGrid(const std::string& yaml_path, MapServerGrid* out, std::string* why) {

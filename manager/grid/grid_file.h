@@ -32,8 +32,12 @@ struct MapServerGrid {
   CellState State(int col, int row) const;
 };
 
+// The grid's cells as map_server values, thresholds 0.65 / 0.196.
+MapServerGrid ToMapServerGrid(const OccupancyGrid& grid);
 // Writes <pgm_path> and <yaml_path> (atomic each); the YAML names the PGM by
 // its file name. `extra` holds additional YAML lines ("key: value").
+bool WriteMapServerGrid(const MapServerGrid& grid, const std::string& pgm_path, const std::string& yaml_path,
+                        const std::vector<std::string>& extra, std::string* why);
 bool WriteMapServerGrid(const OccupancyGrid& grid, const std::string& pgm_path, const std::string& yaml_path,
                         const std::vector<std::string>& extra, std::string* why);
 // Loads a YAML and the image it names; false with *why naming the file and

@@ -1,5 +1,7 @@
 #include "manager/grid/grid_frame.h"
 
+#include "common/trajectory_eval.h"
+
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
@@ -115,32 +117,23 @@ GridFrame EstimateGridFrame(const std::vector<GridKeyframe>& kfs, const Trajecto
   Sim3 S;  // map -> a frame with z up (metric when the scale is known)
   double bin;
   if (!odometry.empty()) {
-    std::vector<Eigen::Vector3d> src, dst;
-    for (const auto& k : kfs) {
-      auto it = std::lower_bound(odometry.begin(), odometry.end(), k.timestamp,
-                                 [](const StampedPose& p, Timestamp t) { return p.t < t; });
-      const StampedPose* best = nullptr;
-      for (auto c : {it, it == odometry.begin() ? it : it - 1})
-        if (c != odometry.end() && std::abs(NsToSeconds(c->t - k.timestamp)) <= o.association_s &&
-            (!best || std::abs(c->t - k.timestamp) < std::abs(best->t - k.timestamp)))
-          best = &*c;
-      if (best) {
-        src.push_back(k.T_wc.translation());
-        dst.push_back(best->T_wc.translation());
-      }
-    }
-    f.odometry_pairs = static_cast<int>(src.size());
-    if (src.size() < 3) {
-      f.why = "only " + std::to_string(src.size()) + " keyframes have an odometry pose within " +
-              std::to_string(o.association_s) + " s";
+    Trajectory keyframes;
+    for (const auto& k : kfs) keyframes.push_back({k.timestamp, k.T_wc});
+    AteOptions ate;  // the evaluation's own association and Sim(3) Umeyama
+    ate.association.max_diff_s = o.association_s;
+    AteResult fit;
+    try {
+      fit = ComputeAte(keyframes, odometry, ate);
+    } catch (const std::exception& e) {
+      f.why = std::string("the keyframes do not fit the odometry: ") + e.what();
       return f;
     }
-    const UmeyamaResult u = UmeyamaAlign(src, dst, true);
-    if (!u.ok || !(u.transform.scale() > 0)) {
-      f.why = "the keyframes do not fit the odometry (degenerate: a straight line or a standstill?)";
+    f.odometry_pairs = static_cast<int>(fit.pairs.size());
+    if (!(fit.S_gt_est.scale() > 0)) {
+      f.why = "the keyframes do not fit the odometry (scale " + std::to_string(fit.S_gt_est.scale()) + ")";
       return f;
     }
-    S = u.transform;
+    S = fit.S_gt_est;
     f.scale_source = f.up_source = "odometry";
     if (planar) {  // keep the odometry's scale and heading, take up from the plane
       Eigen::Vector3d up_o = S.R() * up;
