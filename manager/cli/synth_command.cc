@@ -22,9 +22,10 @@ namespace fs = std::filesystem;
 // The scene's true floor plan (walls and furniture cut at the grid's robot
 // band), as a map_server grid beside the sequence: what `rumi eval grid`
 // scores a grid against.
-bool WriteFloorPlan(const SynthOptions& o, const std::string& out) {
+bool WriteFloorPlan(const SynthOptions& o, const std::string& out, double robot_height_m) {
   const SyntheticSequence seq(o);
-  const GridOptions g;
+  GridOptions g;
+  if (robot_height_m > 0) g.robot_height_m = robot_height_m;
   Eigen::Vector2d lo = Eigen::Vector2d::Constant(1e9), hi = -lo;
   for (const auto& [a, b] : seq.scene().free_space) {
     lo = lo.cwiseMin(a.head<2>());
@@ -56,6 +57,7 @@ struct SynthArgs {
   bool bench = false;
   bool orb_only = false;
   double sift_peak = 0;
+  double grid_robot_height = 0;  // floorplan.pgm's band top; 0: grid.robot_height_m's default
   SynthOptions o;
 };
 
@@ -115,7 +117,7 @@ int RunSynth(SynthArgs& a) {
     const SynthWriteResult r = SynthesizeSequence(a.o, a.out);
     spdlog::info("synth: wrote {} frames ({} dropped) to {} in {:.1f} s; path {:.2f} m", r.frames_written,
                  r.frames_dropped, a.out, r.render_seconds, r.path_length_m);
-    if (!WriteFloorPlan(a.o, a.out)) return 1;
+    if (!WriteFloorPlan(a.o, a.out, a.grid_robot_height)) return 1;
   } catch (const std::exception& e) {
     spdlog::error("synth: {}", e.what());
     return 1;
@@ -154,6 +156,8 @@ void RegisterSynthCommand(CLI::App* app) {
   sub->add_option("--weak-amplitude", args->o.weak_amplitude, "weak/corridor: texture amplitude left")
       ->capture_default_str();
   sub->add_option("--contact-sheet", args->contact_sheet, "write an 8-thumbnail PNG contact sheet here");
+  sub->add_option("--grid-robot-height", args->grid_robot_height,
+                  "top of the band floorplan.pgm is cut at, metres (as grid.robot_height_m; default its default)");
   sub->add_flag("--calibrate", args->calibrate,
                 "check the hard stretch: ORB counts and a COLMAP exhaustive run on a window (slow); OUT is the work folder");
   sub->add_flag("--orb-only", args->orb_only, "with --calibrate: ORB counts only, no COLMAP");

@@ -114,6 +114,7 @@ GridFrame EstimateGridFrame(const std::vector<GridKeyframe>& kfs, const Trajecto
   Eigen::Vector3d up = es.eigenvectors().col(0);
   if (up.dot(down) > 0) up = -up;
 
+  double odometry_height = 0;  // the camera's median height in the odometry frame
   Sim3 S;  // map -> a frame with z up (metric when the scale is known)
   double bin;
   if (!odometry.empty()) {
@@ -129,6 +130,9 @@ GridFrame EstimateGridFrame(const std::vector<GridKeyframe>& kfs, const Trajecto
       return f;
     }
     f.odometry_pairs = static_cast<int>(fit.pairs.size());
+    std::vector<double> heights;
+    for (const PosePair& p : fit.pairs) heights.push_back(odometry[p.gt].T_wc.translation().z());
+    odometry_height = Median(heights);
     if (!(fit.S_gt_est.scale() > 0)) {
       f.why = "the keyframes do not fit the odometry (scale " + std::to_string(fit.S_gt_est.scale()) + ")";
       return f;
@@ -161,7 +165,19 @@ GridFrame EstimateGridFrame(const std::vector<GridKeyframe>& kfs, const Trajecto
     bin = std::max(1e-6, ev(2) / 100);  // map units: a hundredth of the trajectory's extent
   }
   double floor_z = 0, cam_z = 0;
-  if (!FindFloor(kfs, S, bin, &floor_z, &cam_z, &f.floor_points_share, &f.why)) return f;
+  if (odometry_height > 0) {
+    // The pose source's frame has the floor at z = 0 (a robot's odometry
+    // frame, REP 105): the camera's height over it is measured there, not
+    // searched for among map points (a camera that looks at walls sees
+    // little floor).
+    std::vector<double> cams;
+    for (const auto& k : kfs) cams.push_back((S * k.T_wc.translation()).z());
+    cam_z = Median(cams);
+    floor_z = cam_z - odometry_height;
+    f.floor_source = "odometry";
+  } else if (!FindFloor(kfs, S, bin, &floor_z, &cam_z, &f.floor_points_share, &f.why)) {
+    return f;
+  }
   if (!(cam_z - floor_z > 0)) {
     f.why = "the floor found is not below the cameras";
     return f;

@@ -10,8 +10,9 @@
 //    the configured camera height over the measured one;
 //  - else: no metric grid, and the reason says why.
 //
-// In both cases the floor is measured, not assumed: the densest layer of map
-// points below the cameras, perpendicular to up.
+// The floor: with a pose source, its z = 0 (a robot's odometry frame, REP
+// 105: z up, the base on the floor); without, the lowest dense layer of map
+// points below the cameras (that also gives the scale).
 #include <Eigen/Core>
 #include <string>
 #include <vector>
@@ -45,7 +46,8 @@ struct GridFrame {
   Sim3 S_gm;                 // map frame -> grid frame
   std::string scale_source;  // "odometry" | "camera_height"
   std::string up_source;     // "odometry" | "trajectory_plane"
-  double floor_points_share = 0;  // points in the floor layer / points below the cameras
+  std::string floor_source = "map_points";  // "odometry": its z = 0; "map_points": the lowest dense layer
+  double floor_points_share = 0;  // map_points: points in the floor layer / points below the cameras
   double camera_height_m = 0;     // median camera height above the floor, grid frame
   int odometry_pairs = 0;
 };
