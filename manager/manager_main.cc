@@ -43,6 +43,7 @@ int Main(int argc, char** argv) {
   if (!setup.Load()) return kExitBadInput;
   ManagerRunOptions run;
   run.service.manager = setup.config().manager;
+  run.service.grid = setup.config().grid;
   run.service.out_dir = out_dir;
   run.service.map_path = map_path;
   run.service.journal = daemon;

@@ -20,6 +20,7 @@
 #include "manager/global_trajectory.h"
 #include "ipc/submap_codec.h"
 #include "manager/map_file.h"
+#include "manager/map_grid.h"
 
 namespace rumi {
 namespace fs = std::filesystem;
@@ -343,6 +344,7 @@ bool ManagerService::WriteTrajectories(std::string* why) {
 bool ManagerService::WriteStats(std::string* why) const {
   nlohmann::json j;
   j["merges"] = stats_.merges;
+  j["grid"] = stats_.grid;
   j["saved_frames"] = stats_.saved_frames;
   j["saved_frames_postculled"] = stats_.saved_frames_postculled;
   j["submaps_front"] = stats_.submaps_front;
@@ -382,6 +384,20 @@ bool ManagerService::WriteStats(std::string* why) const {
   return WriteFileAtomically((fs::path(options_.out_dir) / "manager_stats.json").string(), j.dump(2) + "\n", why);
 }
 
+bool ManagerService::WriteGrid(std::string* why) {
+  if (!options_.grid.enabled || map_.size() == 0) return true;
+  MapGridResult r;
+  const bool ok = WriteMapGrid(map_, options_.grid, {}, options_.out_dir, &r);
+  const std::string before = stats_.grid;
+  stats_.grid = r.Summary();
+  if (ok || r.no_frame) {  // no metric frame yet (no scale, no floor): not an error; said once
+    if (!ok && stats_.grid != before) spdlog::info("manager: no grid yet: {}", r.why);
+    return true;
+  }
+  if (why) *why = "grid: " + r.why;
+  return false;
+}
+
 bool ManagerService::WriteOutputs(std::string* why) {
   unsaved_ = true;  // until every file below is written
   std::string err;
@@ -403,7 +419,7 @@ bool ManagerService::WriteOutputs(std::string* why) {
     return false;
   }
   stats_.last_save = WallClockNow();
-  if (!WriteTrajectories(why) || !WriteStats(why)) return false;
+  if (!WriteTrajectories(why) || !WriteGrid(why) || !WriteStats(why)) return false;
   unsaved_ = false;
   return true;
 }

@@ -20,6 +20,7 @@
 
 #include "common/submap.h"
 #include "manager/global_map.h"
+#include "manager/grid/grid_builder.h"
 #include "manager/manager_options.h"
 #include "manager/merge.h"
 #include "manager/merge_memo.h"
@@ -37,6 +38,9 @@ struct ManagerServiceOptions {
   // ring slot is let go, so a manager killed between two saves loses none;
   // a restarted manager reloads them. Cleared after each raw save.
   bool journal = false;
+  // The occupancy grid, rewritten with the map (grid.pgm/.yaml/.png,
+  // grid_trajectory.txt in out_dir) when a metric frame can be had.
+  GridOptions grid;
   std::string MapPath() const;
   std::string JournalDir() const;
 };
@@ -57,6 +61,7 @@ struct ManagerStats {
   int base_submaps = 0;  // submaps reloaded from the map file at start
   int trajectory_frames = 0;  // frames of merged.txt
   double last_rebuild_seconds = 0;
+  std::string grid;  // the last grid's summary, or why there is none
   std::vector<MergeReport> reports;  // of the last rebuild (rejections included)
   CullingReport culling;
 };
@@ -99,6 +104,7 @@ class ManagerService {
   bool MoveAside(const std::string& path, const std::string& error, std::string* why);
   void UpdateCounts();
   bool WriteTrajectories(std::string* why);
+  bool WriteGrid(std::string* why);
   bool WriteStats(std::string* why) const;
 
   ManagerServiceOptions options_;

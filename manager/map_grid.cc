@@ -1,7 +1,10 @@
 #include "manager/map_grid.h"
 
 #include <algorithm>
+#include <filesystem>
+#include <fmt/format.h>
 
+#include "manager/grid/grid_file.h"
 #include "manager/submap_index.h"
 
 namespace rumi {
@@ -36,6 +39,84 @@ Trajectory OdometryOf(const GlobalMap& map, int component) {
   out.erase(std::unique(out.begin(), out.end(), [](const StampedPose& a, const StampedPose& b) { return a.t == b.t; }),
             out.end());
   return out;
+}
+
+std::string MapGridResult::Summary() const {
+  if (!ok) return why;
+  return fmt::format(
+      "grid {} x {} cells: {:.2f} m^2 free, {:.2f} m^2 occupied; {} keyframes, {} obstacle rays, {} floor rays, "
+      "{} points overhead; scale from {}, camera {:.3f} m above the floor; {:.3f} s",
+      width, height, free_m2, occupied_m2, stats.keyframes, stats.rays_hit, stats.rays_floor, stats.points_overhead,
+      frame.scale_source, frame.camera_height_m, stats.seconds);
+}
+
+bool WriteMapGrid(const GlobalMap& map, const GridOptions& o, const Trajectory& odometry_in,
+                  const std::string& out_dir, MapGridResult* r) {
+  namespace fs = std::filesystem;
+  *r = MapGridResult();
+  if (map.size() == 0) {
+    r->no_frame = true;
+    r->why = "the map holds no submap";
+    return false;
+  }
+  const int component = map.LargestComponent();
+  const std::vector<GridKeyframe> kfs = GridKeyframesOf(map, component);
+  const Trajectory odometry = odometry_in.empty() ? OdometryOf(map, component) : odometry_in;
+  r->frame = EstimateGridFrame(kfs, odometry, o.frame);
+  if (!r->frame.ok) {
+    r->no_frame = true;
+    r->why = "no metric grid: " + r->frame.why;
+    return false;
+  }
+  const GridFrame& f = r->frame;
+  const OccupancyGrid grid = BuildGrid(kfs, f.S_gm, o, &r->stats);
+  if (grid.width() == 0) {
+    r->no_frame = true;
+    r->why = "no grid: none of " + std::to_string(r->stats.rays_refused + r->stats.points_overhead) +
+             " map points gives a ray (overhead, or farther than max_range_m)";
+    return false;
+  }
+  Trajectory traj;  // the keyframes' path, in the grid frame
+  std::vector<Eigen::Vector2d> path;
+  for (const GridKeyframe& k : kfs) {
+    traj.push_back({k.timestamp, f.S_gm.TransformPose(k.T_wc)});
+    path.push_back(traj.back().T_wc.translation().head<2>());
+  }
+  const auto& q = f.S_gm.rotation();
+  const auto& t = f.S_gm.translation();
+  const std::vector<std::string> extra = {
+      "# rumi: the grid frame is metric, z up, the floor at z = 0",
+      "rumi_scale_source: " + f.scale_source,
+      "rumi_up_source: " + f.up_source,
+      "rumi_floor_source: " + f.floor_source,
+      fmt::format("rumi_camera_height_m: {:.4f}", f.camera_height_m),
+      fmt::format("rumi_map_to_grid: {{s: {:.9f}, q_xyzw: [{:.9f}, {:.9f}, {:.9f}, {:.9f}], "
+                  "t: [{:.6f}, {:.6f}, {:.6f}]}}",
+                  f.S_gm.scale(), q.x(), q.y(), q.z(), q.w(), t.x(), t.y(), t.z()),
+      fmt::format("rumi_band_m: [{:.3f}, {:.3f}]", o.floor_band_m, o.robot_height_m),
+      "rumi_keyframes: " + std::to_string(r->stats.keyframes)};
+  const fs::path out = out_dir;
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (!WriteMapServerGrid(grid, (out / "grid.pgm").string(), (out / "grid.yaml").string(), extra, &r->why) ||
+      !WriteGridPreview(grid, path, (out / "grid.png").string(), &r->why))
+    return false;
+  try {
+    WriteTumTrajectory((out / "grid_trajectory.txt").string(), traj);
+  } catch (const std::exception& e) {
+    r->why = e.what();
+    return false;
+  }
+  int counts[3] = {0, 0, 0};
+  for (int row = 0; row < grid.height(); ++row)
+    for (int col = 0; col < grid.width(); ++col) ++counts[static_cast<int>(grid.State(col, row))];
+  const double cell2 = grid.resolution() * grid.resolution();
+  r->width = grid.width();
+  r->height = grid.height();
+  r->free_m2 = counts[static_cast<int>(CellState::kFree)] * cell2;
+  r->occupied_m2 = counts[static_cast<int>(CellState::kOccupied)] * cell2;
+  r->ok = true;
+  return true;
 }
 
 }  // namespace rumi

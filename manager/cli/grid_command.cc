@@ -3,6 +3,7 @@
 // grid.png (preview with the trajectory) and grid_trajectory.txt (TUM, in the
 // grid's frame) in the run folder or --out.
 #include <filesystem>
+#include <fmt/format.h>
 #include <iostream>
 #include <memory>
 #include <sstream>
@@ -24,14 +25,6 @@ namespace {
 [[noreturn]] void Fail(const std::string& why, int code = 1) {
   std::cerr << "rumi grid: " << why << "\n";
   throw CLI::RuntimeError(code);
-}
-
-std::string Fixed(double v, int digits) {
-  std::ostringstream s;
-  s.setf(std::ios::fixed);
-  s.precision(digits);
-  s << v;
-  return s.str();
 }
 
 }  // namespace
@@ -65,58 +58,16 @@ void RegisterGridCommand(CLI::App* app) {
     const fs::path out = a->out.empty() ? (fs::is_directory(run) ? run : run.parent_path()) : fs::path(a->out);
     GlobalMap map;
     if (!LoadGlobalMap(map_path.string(), &map, &why)) Fail(why);
-    if (map.size() == 0) Fail(map_path.string() + ": the map holds no submap");
-    const int component = map.LargestComponent();
-    const std::vector<GridKeyframe> kfs = GridKeyframesOf(map, component);
     Trajectory odometry;
     try {
-      odometry = a->odometry.empty() ? OdometryOf(map, component) : ReadTumTrajectory(a->odometry);
+      if (!a->odometry.empty()) odometry = ReadTumTrajectory(a->odometry);
     } catch (const std::exception& e) {
       Fail(e.what());
     }
-    const GridFrame frame = EstimateGridFrame(kfs, odometry, o.frame);
-    if (!frame.ok) Fail("no metric grid: " + frame.why, 4);
-    GridBuildStats stats;
-    const OccupancyGrid grid = BuildGrid(kfs, frame.S_gm, o, &stats);
-
-    std::error_code ec;
-    fs::create_directories(out, ec);
-    Trajectory traj;  // the keyframes' path, in the grid frame
-    std::vector<Eigen::Vector2d> path;
-    for (const GridKeyframe& k : kfs) {
-      traj.push_back({k.timestamp, frame.S_gm.TransformPose(k.T_wc)});
-      path.push_back(traj.back().T_wc.translation().head<2>());
-    }
-    const auto& q = frame.S_gm.rotation();
-    const auto& t = frame.S_gm.translation();
-    const std::vector<std::string> extra = {
-        "# rumi: the grid frame is metric, z up, the floor at z = 0",
-        "rumi_scale_source: " + frame.scale_source,
-        "rumi_up_source: " + frame.up_source,
-        "rumi_camera_height_m: " + Fixed(frame.camera_height_m, 4),
-        "rumi_map_to_grid: {s: " + Fixed(frame.S_gm.scale(), 9) + ", q_xyzw: [" + Fixed(q.x(), 9) + ", " +
-            Fixed(q.y(), 9) + ", " + Fixed(q.z(), 9) + ", " + Fixed(q.w(), 9) + "], t: [" + Fixed(t.x(), 6) + ", " +
-            Fixed(t.y(), 6) + ", " + Fixed(t.z(), 6) + "]}",
-        "rumi_keyframes: " + std::to_string(stats.keyframes)};
-    if (!WriteMapServerGrid(grid, (out / "grid.pgm").string(), (out / "grid.yaml").string(), extra, &why) ||
-        !WriteGridPreview(grid, path, (out / "grid.png").string(), &why))
-      Fail(why);
-    try {
-      WriteTumTrajectory((out / "grid_trajectory.txt").string(), traj);
-    } catch (const std::exception& e) {
-      Fail(e.what());
-    }
-    int counts[3] = {0, 0, 0};
-    for (int r = 0; r < grid.height(); ++r)
-      for (int c = 0; c < grid.width(); ++c) ++counts[static_cast<int>(grid.State(c, r))];
-    const double cell2 = grid.resolution() * grid.resolution();
-    std::cout << "grid " << grid.width() << " x " << grid.height() << " cells of " << grid.resolution() << " m: "
-              << Fixed(counts[1] * cell2, 2) << " m^2 free, " << Fixed(counts[2] * cell2, 2) << " m^2 occupied; "
-              << stats.keyframes << " keyframes, " << stats.rays_hit << " obstacle rays, " << stats.rays_floor
-              << " floor rays, " << stats.points_overhead << " points overhead; scale from " << frame.scale_source
-              << ", camera " << Fixed(frame.camera_height_m, 3) << " m above the floor; " << Fixed(stats.seconds, 3)
-              << " s\n"
-              << "wrote " << (out / "grid.yaml").string() << ", grid.pgm, grid.png, grid_trajectory.txt\n";
+    MapGridResult r;
+    if (!WriteMapGrid(map, o, odometry, out.string(), &r)) Fail(map_path.string() + ": " + r.why, r.no_frame ? 4 : 1);
+    std::cout << r.Summary() << "\nwrote " << (out / "grid.yaml").string()
+              << ", grid.pgm, grid.png, grid_trajectory.txt\n";
   });
 }
 
@@ -146,16 +97,17 @@ void AddEvalGridCommand(CLI::App* eval) {
     }
     const GridScore g = ScoreGrid(est, truth, fit.S_gt_est.Inverse());
     if (a->json) {
-      std::cout << "{\"occupied_iou\": " << Fixed(g.occupied_iou, 4) << ", \"free_iou\": " << Fixed(g.free_iou, 4)
-                << ", \"coverage\": " << Fixed(g.coverage, 4) << ", \"true_free_cells\": " << g.true_free
-                << ", \"true_occupied_cells\": " << g.true_occupied << ", \"observed_cells\": " << g.observed
-                << ", \"alignment_scale\": " << Fixed(fit.S_gt_est.scale(), 4)
-                << ", \"alignment_rmse_m\": " << Fixed(fit.translation.rmse, 4) << "}\n";
+      std::cout << fmt::format(
+          "{{\"occupied_iou\": {:.4f}, \"free_iou\": {:.4f}, \"coverage\": {:.4f}, \"true_free_cells\": {}, "
+          "\"true_occupied_cells\": {}, \"observed_cells\": {}, \"alignment_scale\": {:.4f}, "
+          "\"alignment_rmse_m\": {:.4f}}}\n",
+          g.occupied_iou, g.free_iou, g.coverage, g.true_free, g.true_occupied, g.observed, fit.S_gt_est.scale(),
+          fit.translation.rmse);
     } else {
-      std::cout << "occupied IoU " << Fixed(g.occupied_iou, 3) << ", free IoU " << Fixed(g.free_iou, 3)
-                << " (observed area), coverage of the true free space " << Fixed(100 * g.coverage, 1) << " %; "
-                << g.observed << " cells compared; trajectory aligned with scale "
-                << Fixed(fit.S_gt_est.scale(), 3) << ", RMSE " << Fixed(fit.translation.rmse, 3) << " m\n";
+      std::cout << fmt::format(
+          "occupied IoU {:.3f}, free IoU {:.3f} (observed area), coverage of the true free space {:.1f} %; {} cells "
+          "compared; trajectory aligned with scale {:.3f}, RMSE {:.3f} m\n",
+          g.occupied_iou, g.free_iou, 100 * g.coverage, g.observed, fit.S_gt_est.scale(), fit.translation.rmse);
     }
   });
 }
