@@ -29,7 +29,10 @@ std::string DaemonSummary(const nlohmann::json& st) {
   const nlohmann::json& f = st.value("front", nlohmann::json::object());
   const nlohmann::json& b = st.value("back", nlohmann::json::object());
   const nlohmann::json& m = st.value("manager", nlohmann::json::object());
-  std::string s = Get(st, "state") + "; source " + Get(f, "source") + "; " + Get(f, "state", "front starting") +
+  // Once the source ended (finishing), the front's last report is stale.
+  const bool ended = Get(st, "state") == "finishing";
+  std::string s = Get(st, "state") + "; source " + (ended ? std::string("ended") : Get(f, "source")) + "; " +
+                  (ended ? std::string("front done") : Get(f, "state", "front starting")) +
                   "; submaps " + Get(m, "submaps_front", "0") + " front + " + Get(m, "submaps_back", "0") +
                   " back; merges " + Get(m, "merges", "0") + "; back queue " + Get(b, "queue", "0");
   if (b.contains("building")) s += " (window " + Get(b["building"], "window") + ": " + Get(b["building"], "stage") + ")";
@@ -54,7 +57,8 @@ std::string FormatDaemonStatus(const nlohmann::json& st, bool alive) {
   const nlohmann::json& f = st.value("front", nlohmann::json::object());
   const nlohmann::json& b = st.value("back", nlohmann::json::object());
   const nlohmann::json& m = st.value("manager", nlohmann::json::object());
-  o << "\n  source     " << Get(f, "source") << "\n";
+  o << "\n  source     " << (Get(st, "state") == "finishing" ? std::string("ended") : Get(f, "source"))
+    << "\n";
   o << "  tracking   " << Get(f, "state") << " in submap " << Get(f, "submap") << "; frames " << Get(f, "frames")
     << ", tracked " << Get(f, "tracked") << ", skipped " << Get(f, "skipped") << "\n";
   o << "  submaps    " << Get(m, "submaps_front", "0") << " front, " << Get(m, "submaps_back", "0") << " back, "
