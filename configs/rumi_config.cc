@@ -35,6 +35,7 @@ RumiConfig Load(ConfigSection root, const std::string& file) {
     ReadOptions(m, &c.manager_loop);
   }
   ReadSection(root, "grid", &c.grid);
+  ReadSection(root, "dds", &c.dds);
   ReadSection(root, "ipc", &c.ipc);
   ReadSection(root, "daemon", &c.daemon);
   root.Finish();
@@ -77,6 +78,7 @@ std::vector<ConfigSectionInfo> DescribeRumiConfig(const RumiConfig& c) {
   Describe(&out, "manager", c.manager);
   Describe(&out, "manager", c.manager_loop);
   Describe(&out, "grid", c.grid);
+  Describe(&out, "dds", c.dds);
   Describe(&out, "ipc", c.ipc);
   Describe(&out, "daemon", c.daemon);
   return out;

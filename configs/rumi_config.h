@@ -15,6 +15,7 @@
 //   back:      BackOptions                back/back_options.h
 //   manager:   ManagerOptions + ManagerLoopOptions   manager/manager_options.h, manager_run.h
 //   grid:      GridOptions                manager/grid/grid_builder.h
+//   dds:       DdsOptions                 manager/dds/dds_options.h
 //   ipc:       IpcOptions                 ipc/channels.h
 //   daemon:    DaemonOptions              manager/daemon/daemon_options.h
 #include <string>
@@ -28,6 +29,7 @@
 #include "front/sampler.h"
 #include "ipc/channels.h"
 #include "manager/daemon/daemon_options.h"
+#include "manager/dds/dds_options.h"
 #include "manager/grid/grid_builder.h"
 #include "manager/manager_options.h"
 #include "manager/manager_run.h"
@@ -47,6 +49,7 @@ struct RumiConfig {
   ManagerOptions manager;
   ManagerLoopOptions manager_loop;
   GridOptions grid;
+  DdsOptions dds;
   IpcOptions ipc;
   DaemonOptions daemon;
 };

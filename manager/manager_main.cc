@@ -52,6 +52,7 @@ int Main(int argc, char** argv) {
   if (rebuild_interval_s >= 0) run.loop.rebuild_interval_s = rebuild_interval_s;
   if (rebuild_max_duty >= 0) run.loop.rebuild_max_duty = rebuild_max_duty;
   run.ipc = setup.config().ipc;
+  run.dds = setup.config().dds;
   run.ipc.instance = instance;
   run.producer_death_ends = !daemon;
   if (daemon) run.finish = ProcessSignals::finish();

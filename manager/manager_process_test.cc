@@ -25,6 +25,7 @@
 #include "ipc/channels.h"
 #include "manager/map_file.h"
 #include "manager/test_scenario.h"
+#include "tests/rumi_cli_util.h"
 
 namespace rumi {
 namespace {
@@ -56,19 +57,7 @@ pid_t Spawn(const std::vector<std::string>& args, const std::string& log) {
 }
 
 // Exit status, or -1 (child killed) when it does not end within timeout_s.
-int WaitExit(pid_t pid, double timeout_s) {
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  for (;;) {
-    int status = 0;
-    if (::waitpid(pid, &status, WNOHANG) == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : -2;
-    if (std::chrono::steady_clock::now() > end) {
-      ::kill(pid, SIGKILL);
-      ::waitpid(pid, &status, 0);
-      return -1;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-}
+int WaitExit(pid_t pid, double timeout_s) { return test::WaitExit(pid, timeout_s, /*kill_on_timeout=*/true); }
 
 // Waits until the manager (pid) is attached as consumer to both rings: a
 // producer that closes before that would take its messages with it.

@@ -1,5 +1,8 @@
 #include "manager/manager_run.h"
 
+#include "manager/dds/map_server.h"
+#include "manager/map_snapshot_of.h"
+
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -10,6 +13,8 @@
 #include "common/process/notify.h"
 #include "common/timestamp.h"
 #include "ipc/channel_watch.h"
+#include "manager/dds/map_server.h"
+#include "manager/map_snapshot_of.h"
 
 namespace rumi {
 
@@ -99,8 +104,14 @@ bool RebuildDue(const ManagerLoopOptions& loop, double since_last_s, double last
   return since_last_s >= std::max(loop.rebuild_interval_s, last_rebuild_s * (1.0 / duty - 1.0));
 }
 
-ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service, const std::atomic<bool>* stop) {
+ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service, const std::atomic<bool>* stop,
+                           MapServer* server) {
   const auto start = std::chrono::steady_clock::now();
+  SnapshotMaker snapshots(run.ipc.instance);
+  const auto publish = [&](const char* state) {
+    if (server) server->Publish(snapshots.Make(*service, state, StatusJson(*service, state).dump()));
+  };
+  publish("running");
   Channel front("front submap", run.ipc, SubmapSource::kFront, run.loop.wait_for_producers_s);
   Channel back("back submap", run.ipc, SubmapSource::kBack, run.loop.wait_for_producers_s);
   Notifier notifier;
@@ -115,6 +126,7 @@ ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service
     notifier.Heartbeat(StatusJson(*service, "rebuilding"), /*force=*/true);
     const bool ok = service->Rebuild(&why, cancel);
     last_rebuild = std::chrono::steady_clock::now();
+    publish("running");
     if (ok) return true;
     if (stop && stop->load()) spdlog::info("manager: {}", why);  // nothing was changed
     else spdlog::error("manager: {}", why);
@@ -169,6 +181,7 @@ ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service
     spdlog::error("manager: {}", why);
     return ManagerExit::kError;
   }
+  publish(result == ManagerExit::kStopped ? "stopped" : "done");
   const ManagerStats& st = service->stats();
   spdlog::info("manager: done: {} front + {} back submaps ({} messages, {} resends, {} malformed), {} merges, "
                "{} components, {} frames in merged.txt, keyframes {} -> {}",
@@ -187,8 +200,13 @@ int RunManager(const ManagerRunOptions& run, const std::atomic<bool>* stop) {
   }
   spdlog::info("manager: instance {}, out {}, map {}{}", run.ipc.instance, run.service.out_dir,
                run.service.MapPath(), run.service.journal ? ", journal on" : "");
+  std::unique_ptr<MapServer> server;
+  if (run.dds.enabled) {
+    server = MapServer::Start(run.dds, run.ipc.instance, &why);
+    if (!server) spdlog::error("manager: the map is not served over DDS: {}", why);
+  }
   try {
-    switch (RunManagerLoop(run, &service, stop)) {
+    switch (RunManagerLoop(run, &service, stop, server.get())) {
       case ManagerExit::kProducersDone:
         return kExitDone;
       case ManagerExit::kStopped:

@@ -7,6 +7,7 @@
 
 #include "common/option_spec.h"
 #include "ipc/channels.h"
+#include "manager/dds/dds_options.h"
 #include "manager/manager_service.h"
 
 namespace rumi {
@@ -37,6 +38,7 @@ struct ManagerRunOptions {
   ManagerServiceOptions service;
   ManagerLoopOptions loop;
   IpcOptions ipc;
+  DdsOptions dds;  // enabled: the map is served over DDS (docs/dds.md)
   // `rumi eval run`: a producer that died is finished. rumid: it is
   // restarted, so the manager waits for it.
   bool producer_death_ends = true;
@@ -57,9 +59,15 @@ enum class ManagerExit { kProducersDone, kStopped, kNoProducer, kError };
 // appeared within wait_for_producers_s) and the rings are drained, or *stop
 // is set. Rebuilds as submaps arrive (rate-limited) and once more at the end;
 // reports its status (notify: a heartbeat per loop turn).
-ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service, const std::atomic<bool>* stop);
+// With a server, a snapshot of the map goes to it after every rebuild and at
+// the end (it never waits on DDS).
+class MapServer;
+ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service, const std::atomic<bool>* stop,
+                           MapServer* server = nullptr);
 
-// The whole process: starts the service (reloads the map), runs the loop.
+// The whole process: starts the service (reloads the map) and, with
+// dds.enabled, the DDS server (a server that cannot start is logged, and the
+// manager runs on without it), then runs the loop.
 // Returns the exit code (common/process/exit_codes.h).
 int RunManager(const ManagerRunOptions& run, const std::atomic<bool>* stop);
 

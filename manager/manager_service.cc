@@ -388,6 +388,7 @@ bool ManagerService::WriteGrid(std::string* why) {
   if (!options_.grid.enabled || map_.size() == 0) return true;
   MapGridResult r;
   const bool ok = WriteMapGrid(map_, options_.grid, {}, options_.out_dir, &r);
+  if (ok || r.no_frame) grid_ = r;  // a write failure keeps the last grid served
   const std::string before = stats_.grid;
   stats_.grid = r.Summary();
   if (ok || r.no_frame) {  // no metric frame yet (no scale, no floor): not an error; said once

@@ -21,6 +21,7 @@
 #include "common/submap.h"
 #include "manager/global_map.h"
 #include "manager/grid/grid_builder.h"
+#include "manager/map_grid.h"
 #include "manager/manager_options.h"
 #include "manager/merge.h"
 #include "manager/merge_memo.h"
@@ -97,6 +98,8 @@ class ManagerService {
 
   const GlobalMap& map() const { return map_; }
   const ManagerStats& stats() const { return stats_; }
+  // The last grid written (ok false: none yet, why says why).
+  const MapGridResult& grid() const { return grid_; }
   const ManagerServiceOptions& options() const { return options_; }
 
  private:
@@ -117,6 +120,7 @@ class ManagerService {
   bool raw_dirty_ = false;  // received_ changed since the raw file was written
   bool unsaved_ = false;
   int written_components_ = 0;  // merged_<k>.txt files present
+  MapGridResult grid_;
   ManagerStats stats_;
 };
 

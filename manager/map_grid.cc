@@ -98,7 +98,9 @@ bool WriteMapGrid(const GlobalMap& map, const GridOptions& o, const Trajectory& 
   const fs::path out = out_dir;
   std::error_code ec;
   fs::create_directories(out, ec);
-  if (!WriteMapServerGrid(grid, (out / "grid.pgm").string(), (out / "grid.yaml").string(), extra, &r->why) ||
+  r->cells = ToMapServerGrid(grid);
+  r->yaml = MapServerYaml(r->cells, "grid.pgm", extra);
+  if (!WriteMapServerGrid(r->cells, (out / "grid.pgm").string(), (out / "grid.yaml").string(), extra, &r->why) ||
       !WriteGridPreview(grid, path, (out / "grid.png").string(), &r->why))
     return false;
   try {

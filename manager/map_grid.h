@@ -7,6 +7,7 @@
 #include "common/trajectory.h"
 #include "manager/global_map.h"
 #include "manager/grid/grid_builder.h"
+#include "manager/grid/grid_file.h"
 #include "manager/grid/grid_frame.h"
 
 namespace rumi {
@@ -24,6 +25,8 @@ struct MapGridResult {
   GridBuildStats stats;
   int width = 0, height = 0;
   double free_m2 = 0, occupied_m2 = 0;
+  MapServerGrid cells;  // as written (grid.pgm)
+  std::string yaml;     // grid.yaml as written
   std::string Summary() const;  // one line: size, areas, rays, scale, time
 };
 

@@ -78,16 +78,7 @@ class Daemon : public ::testing::Test {
     EXPECT_GT(pid, 0) << why;
     return pid;
   }
-  // Exit code, -2 killed by a signal, -1 still running after timeout_s.
-  static int WaitExit(pid_t pid, double timeout_s) {
-    const auto t0 = Clock::now();
-    int st = 0;
-    while (Since(t0) < timeout_s) {
-      if (::waitpid(pid, &st, WNOHANG) == pid) return WIFEXITED(st) ? WEXITSTATUS(st) : -2;
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    return -1;
-  }
+  static int WaitExit(pid_t pid, double timeout_s) { return test::WaitExit(pid, timeout_s); }
   static nlohmann::json Status(const fs::path& state) { return test::ReadStatus(state); }
   static pid_t ChildPid(const nlohmann::json& st, const std::string& name) {
     return test::StatusChild(st, name).value("pid", -1);

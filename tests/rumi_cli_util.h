@@ -1,5 +1,6 @@
 #pragma once
 // Helpers for tests that drive the `rumi` CLI as a user would.
+#include <signal.h>
 #include <sys/wait.h>
 
 #include <chrono>
@@ -9,6 +10,7 @@
 #include <iterator>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <thread>
 
 namespace rumi {
 namespace test {
@@ -34,6 +36,22 @@ inline std::string BinPath(const std::string& name) {
 
 inline double SecondsSince(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// Exit code of child pid, -2 when killed by a signal, -1 when it is still
+// running after timeout_s (then SIGKILLed and reaped with kill_on_timeout).
+inline int WaitExit(pid_t pid, double timeout_s, bool kill_on_timeout = false) {
+  const auto t0 = std::chrono::steady_clock::now();
+  int st = 0;
+  while (SecondsSince(t0) < timeout_s) {
+    if (::waitpid(pid, &st, WNOHANG) == pid) return WIFEXITED(st) ? WEXITSTATUS(st) : -2;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  if (kill_on_timeout) {
+    ::kill(pid, SIGKILL);
+    ::waitpid(pid, &st, 0);
+  }
+  return -1;
 }
 
 // A rumid state folder's status.json ({} while there is none or it is being replaced).

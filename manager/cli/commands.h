@@ -13,5 +13,6 @@ void RegisterStatusCommand(CLI::App* app);  // status_command.cc
 void RegisterConfigCommand(CLI::App* app);  // config_command.cc
 void RegisterGridCommand(CLI::App* app);    // grid_command.cc
 void AddEvalGridCommand(CLI::App* eval);    // grid_command.cc: under `eval`
+void RegisterQueryCommand(CLI::App* app);   // query_command.cc: the map over DDS
 
 }  // namespace rumi::cli

@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   rumi::cli::RegisterStatusCommand(&app);
   rumi::cli::RegisterConfigCommand(&app);
   rumi::cli::RegisterGridCommand(&app);
+  rumi::cli::RegisterQueryCommand(&app);
   app.parse_complete_callback([&] { rumi::SetupLogging("rumi", log_level); });
   CLI11_PARSE(app, argc, argv);
   return 0;

@@ -73,6 +73,20 @@ MapServerGrid ToMapServerGrid(const OccupancyGrid& grid) {
   return g;
 }
 
+std::string MapServerYaml(const MapServerGrid& g, const std::string& image, const std::vector<std::string>& extra) {
+  std::ostringstream y;
+  y.precision(10);
+  y << "image: " << image << "\n"
+    << "mode: " << g.mode << "\n"
+    << "resolution: " << g.resolution << "\n"
+    << "origin: [" << g.origin.x() << ", " << g.origin.y() << ", " << g.origin.z() << "]\n"
+    << "negate: " << g.negate << "\n"
+    << "occupied_thresh: " << g.occupied_thresh << "\n"
+    << "free_thresh: " << g.free_thresh << "\n";
+  for (const std::string& line : extra) y << line << "\n";
+  return y.str();
+}
+
 bool WriteMapServerGrid(const MapServerGrid& g, const std::string& pgm_path, const std::string& yaml_path,
                         const std::vector<std::string>& extra, std::string* why) {
   if (g.width == 0 || g.height == 0) {
@@ -84,17 +98,7 @@ bool WriteMapServerGrid(const MapServerGrid& g, const std::string& pgm_path, con
   std::vector<uint8_t> bytes(header.begin(), header.end());
   bytes.insert(bytes.end(), g.pixels.begin(), g.pixels.end());
   if (!WriteFileAtomically(pgm_path, bytes, why)) return false;
-  std::ostringstream y;
-  y.precision(10);
-  y << "image: " << fs::path(pgm_path).filename().string() << "\n"
-    << "mode: " << g.mode << "\n"
-    << "resolution: " << g.resolution << "\n"
-    << "origin: [" << g.origin.x() << ", " << g.origin.y() << ", " << g.origin.z() << "]\n"
-    << "negate: " << g.negate << "\n"
-    << "occupied_thresh: " << g.occupied_thresh << "\n"
-    << "free_thresh: " << g.free_thresh << "\n";
-  for (const std::string& line : extra) y << line << "\n";
-  return WriteFileAtomically(yaml_path, y.str(), why);
+  return WriteFileAtomically(yaml_path, MapServerYaml(g, fs::path(pgm_path).filename().string(), extra), why);
 }
 
 bool WriteMapServerGrid(const OccupancyGrid& grid, const std::string& pgm_path, const std::string& yaml_path,

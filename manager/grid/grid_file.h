@@ -34,6 +34,8 @@ struct MapServerGrid {
 
 // The grid's cells as map_server values, thresholds 0.65 / 0.196.
 MapServerGrid ToMapServerGrid(const OccupancyGrid& grid);
+// The YAML text naming `image`, with `extra` lines after map_server's keys.
+std::string MapServerYaml(const MapServerGrid& grid, const std::string& image, const std::vector<std::string>& extra);
 // Writes <pgm_path> and <yaml_path> (atomic each); the YAML names the PGM by
 // its file name. `extra` holds additional YAML lines ("key: value").
 bool WriteMapServerGrid(const MapServerGrid& grid, const std::string& pgm_path, const std::string& yaml_path,

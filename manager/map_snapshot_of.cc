@@ -1,0 +1,101 @@
+#include "manager/map_snapshot_of.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "manager/global_trajectory.h"
+
+namespace rumi {
+
+std::shared_ptr<const MapSnapshot> SnapshotMaker::Make(const ManagerService& service, const std::string& state,
+                                                       const std::string& status_json) {
+  auto snap = std::make_shared<MapSnapshot>();
+  MapSnapshot& s = *snap;
+  const GlobalMap& map = service.map();
+  const ManagerStats& st = service.stats();
+  s.seq = ++seq_;
+  s.status.instance = instance_;
+  s.status.state = state;
+  s.status.stamp_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                          std::chrono::system_clock::now().time_since_epoch())
+                          .count();
+  s.status.rebuilds = st.rebuilds;
+  s.status.submaps_front = st.submaps_front;
+  s.status.submaps_back = st.submaps_back;
+  s.status.components = st.components;
+  s.status.last_save = st.last_save;
+  s.status.grid = st.grid;
+  s.status.json = status_json;
+
+  const std::vector<int> roots = map.ComponentsBySize();
+  auto component_rank = [&](int i) {
+    const int c = map.Component(i);
+    for (size_t k = 0; k < roots.size(); ++k)
+      if (roots[k] == c) return static_cast<int>(k);
+    return -1;
+  };
+  // Fused duplicates are served once (the kept point).
+  std::set<std::pair<int, int64_t>> dups;
+  for (const FusedPoint& f : map.fused()) dups.insert({f.dup, f.dup_point});
+  for (size_t i = 0; i < map.size(); ++i) {
+    const int idx = static_cast<int>(i);
+    const Submap& sm = map.submap(idx);
+    const Sim3& S = map.ToGlobal(idx);
+    const int rank = component_rank(idx);
+    SnapshotSubmap sum;
+    sum.key = ToString(map.Key(idx));
+    sum.component = rank;
+    sum.keyframes = static_cast<int>(sm.keyframes.size());
+    sum.points = static_cast<int64_t>(sm.points.size());
+    if (!sm.keyframes.empty()) {
+      sum.first = sm.keyframes.front().timestamp;
+      sum.last = sm.keyframes.back().timestamp;
+    }
+    sum.S_gl = S;
+    s.submaps.push_back(sum);
+    s.status.keyframes += sum.keyframes;
+    for (const Keyframe& k : sm.keyframes) s.keyframes.push_back({k.id, k.timestamp, sum.key, rank, S.TransformPose(k.T_wc())});
+    if (submaps_.insert(sum.key).second) s.events.push_back({"received", sum.key, "", Sim3(), ""});
+    if (rank != 0) continue;
+    for (const MapPoint& p : sm.points) {
+      if (dups.count({idx, p.id})) continue;
+      s.points.push_back((S * p.position).cast<float>());
+    }
+  }
+  std::stable_sort(s.keyframes.begin(), s.keyframes.end(),
+                   [](const SnapshotKeyframe& a, const SnapshotKeyframe& b) { return a.component < b.component; });
+  s.status.points = static_cast<int64_t>(s.points.size());
+  if (map.size() > 0)
+    for (const GlobalPose& p : ComputeGlobalTrajectory(map)) s.trajectory.push_back({p.timestamp, p.from_back, p.T_wc});
+  s.status.trajectory_frames = static_cast<int>(s.trajectory.size());  // also of a reloaded, unrebuilt map
+
+  for (const MergeReport& r : st.reports) {
+    const std::pair<std::string, std::string> key{ToString(r.back), ToString(r.front)};
+    if (r.merged && merges_.insert(key).second) {
+      s.events.push_back({"merged", key.first, key.second, r.S_bf.Inverse(),
+                          "inliers " + std::to_string(r.inliers) + ", ratio " + std::to_string(r.inlier_ratio)});
+    } else if (!r.merged && r.keyframe_pairs > 0 && rejections_.insert(key).second) {
+      s.events.push_back({"rejected", key.first, key.second, Sim3(), r.reason});
+    }
+  }
+  const int culled = st.culling.keyframes_before - st.culling.keyframes_after;
+  if (culled != culled_ && st.rebuilds > 0) {
+    culled_ = culled;
+    s.events.push_back({"culled", "", "", Sim3(),
+                        std::to_string(culled) + " of " + std::to_string(st.culling.keyframes_before) + " keyframes"});
+  }
+  if (st.last_save != last_save_ && !st.last_save.empty()) {
+    last_save_ = st.last_save;
+    s.events.push_back({"saved", "", "", Sim3(), service.options().MapPath()});
+  }
+  const MapGridResult& g = service.grid();
+  if (g.ok) {
+    s.grid.ok = true;
+    s.grid.cells = g.cells;
+    s.grid.yaml = g.yaml;
+    s.grid.S_gm = g.frame.S_gm;
+  }
+  return snap;
+}
+
+}  // namespace rumi

@@ -1,0 +1,33 @@
+#pragma once
+// Turns the manager's current product into the snapshot the DDS server
+// answers from (manager/dds/map_snapshot.h), and the events since the
+// previous one (new submaps, merges and rejections of real attempts,
+// culling, saves).
+#include <memory>
+#include <set>
+#include <string>
+#include <utility>
+
+#include "manager/dds/map_snapshot.h"
+#include "manager/manager_service.h"
+
+namespace rumi {
+
+class SnapshotMaker {
+ public:
+  explicit SnapshotMaker(std::string instance) : instance_(std::move(instance)) {}
+  // state: the manager's (running, rebuilding, done, stopping); status_json:
+  // the status line rumi status shows for the manager.
+  std::shared_ptr<const MapSnapshot> Make(const ManagerService& service, const std::string& state,
+                                          const std::string& status_json);
+
+ private:
+  std::string instance_;
+  int64_t seq_ = 0;
+  std::set<std::string> submaps_;
+  std::set<std::pair<std::string, std::string>> merges_, rejections_;
+  int culled_ = -1;
+  std::string last_save_;
+};
+
+}  // namespace rumi
