@@ -116,6 +116,7 @@ FrontPublisher::FrontPublisher(const FrontPublisherOptions& options, const IpcOp
   }
   windows_ = std::make_unique<WindowSender>(ipc);
   submaps_ = std::make_unique<SubmapSender>(ipc, SubmapSource::kFront);
+  poses_ = std::make_unique<PoseSender>(ipc);
   if (o_.keep_segments) {
     windows_->ring().KeepSegmentOnClose();
     submaps_->ring().KeepSegmentOnClose();
@@ -185,6 +186,7 @@ void FrontPublisher::OnFrame(const FrameRecord& rec, const cv::Mat& image, doubl
                              int64_t submap_keyframes, const std::vector<Submap>& finished,
                              const std::function<Submap()>& snapshot) {
   const int64_t t0 = SteadyNs();
+  poses_->Send({rec.timestamp, rec.state, rec.submap_id, rec.T_wc});  // the live pose (DDS, via the manager)
   if (rec.state != TrackingState::kCoarse) {
     if (rec.submap_id != count_submap_) {
       count_submap_ = rec.submap_id;

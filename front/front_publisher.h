@@ -149,6 +149,7 @@ class FrontPublisher {
   Sampler sampler_;
   std::unique_ptr<WindowSender> windows_;
   std::unique_ptr<SubmapSender> submaps_;
+  std::unique_ptr<PoseSender> poses_;  // every frame, from the tracking thread (never waits)
   int64_t opened_ns_ = 0;
   Timestamp logged_until_ = 0;  // append mode: front_frames.txt already covers frames up to here
   std::ofstream frames_file_, samples_file_;

@@ -3,8 +3,10 @@
 #include <spdlog/spdlog.h>
 
 #include <cctype>
+#include <cmath>
 #include <chrono>
 
+#include "ipc/byte_io.h"
 #include "ipc/submap_codec.h"
 #include "ipc/window_codec.h"
 
@@ -58,6 +60,10 @@ RingLayout WindowLayout(const IpcOptions& o) {
   if (!o.Check(&why)) throw IpcError("bad IpcOptions: " + why);
   return {static_cast<uint64_t>(o.window_slots), static_cast<uint64_t>(o.window_slot_bytes), o.policy()};
 }
+// 64 frames of slack (2 s at 30 Hz) of 128 bytes; always the newest.
+RingLayout PoseLayout() { return {64, 128, OverflowPolicy::kDropOldest}; }
+constexpr uint32_t kPoseMagic = 0x31534f50;  // "POS1"
+constexpr size_t kPoseBytes = 4 + 8 + 1 + 8 + 7 * 8;
 RingLayout SubmapLayout(const IpcOptions& o) {
   std::string why;
   if (!o.Check(&why)) throw IpcError("bad IpcOptions: " + why);
@@ -136,6 +142,58 @@ PopStatus SubmapReceiver::Receive(Submap* s, double timeout_s, bool hold) {
     ++decode_errors_;
     spdlog::error("ipc {}: dropping undecodable submap: {}", ring_.name(), err);
     ring_.Release();
+  }
+}
+
+PoseSender::PoseSender(const IpcOptions& o) : ring_(SegmentName(o.instance, kPoseChannel), PoseLayout()) {}
+
+PushStatus PoseSender::Send(const FramePose& p) {
+  return ring_.Push(kPoseBytes, [&](uint8_t* dst) {
+    BufferWriter w(dst, kPoseBytes);
+    w.Put(kPoseMagic);
+    w.Put(p.timestamp);
+    w.Put(static_cast<uint8_t>(p.state));
+    w.Put(p.submap_id);
+    const Eigen::Quaterniond& q = p.T_wc.rotation();
+    for (double v : {p.T_wc.translation().x(), p.T_wc.translation().y(), p.T_wc.translation().z(), q.x(), q.y(),
+                     q.z(), q.w()})
+      w.Put(v);
+  });
+}
+
+PoseReceiver::PoseReceiver(const IpcOptions& o) : ring_(SegmentName(o.instance, kPoseChannel), PoseLayout()) {}
+
+PopStatus PoseReceiver::ReceiveNewest(FramePose* out) {
+  bool got = false;
+  for (;;) {
+    const uint8_t* data = nullptr;
+    size_t n = 0;
+    const PopStatus st = ring_.Peek(&data, &n, 0.0);
+    if (st != PopStatus::kOk) return got ? PopStatus::kOk : st;
+    FramePose p;
+    bool ok = n == kPoseBytes;
+    if (ok) {
+      BufferReader r(data, n, "pose");
+      double v[7];
+      ok = r.Get<uint32_t>() == kPoseMagic;
+      p.timestamp = r.Get<int64_t>();
+      const uint8_t state = r.Get<uint8_t>();
+      p.submap_id = r.Get<int64_t>();
+      for (double& x : v) x = r.Get<double>();
+      ok = ok && state <= static_cast<uint8_t>(TrackingState::kCoarse) &&
+           std::abs(Eigen::Vector4d(v[3], v[4], v[5], v[6]).norm() - 1.0) < 1e-6;
+      if (ok) {
+        p.state = static_cast<TrackingState>(state);
+        p.T_wc = Se3::FromUnitQuaternion(Eigen::Quaterniond(v[6], v[3], v[4], v[5]), Eigen::Vector3d(v[0], v[1], v[2]));
+      }
+    }
+    ring_.Release();
+    if (!ok) {
+      ++decode_errors_;
+      continue;
+    }
+    *out = p;
+    got = true;
   }
 }
 

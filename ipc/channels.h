@@ -3,6 +3,7 @@
 //   windows        front -> back     ImageWindow  (ipc/window_codec)
 //   front_submaps  front -> manager  Submap       (ipc/submap_codec)
 //   back_submaps   back  -> manager  Submap
+//   poses          front -> manager  FramePose (every frame; the newest wins)
 // Segment names are rumi_<instance>_<channel>, so instances run side by side.
 #include <memory>
 #include <string>
@@ -33,6 +34,7 @@ std::string InstanceIdProblem(const std::string& id);
 constexpr const char* kWindowChannel = "windows";
 constexpr const char* kFrontSubmapChannel = "front_submaps";
 constexpr const char* kBackSubmapChannel = "back_submaps";
+constexpr const char* kPoseChannel = "poses";
 const char* SubmapChannel(SubmapSource source);  // kFront / kBack (kMerged is never sent)
 
 class WindowSender {
@@ -94,6 +96,41 @@ class SubmapReceiver {
   void Release() { ring_.Release(); }
   uint64_t decode_errors() const { return decode_errors_; }
   RingConsumer& ring() { return ring_; }
+
+ private:
+  RingConsumer ring_;
+  uint64_t decode_errors_ = 0;
+};
+
+// The front's pose of one frame, in its submap's frame, for the live pose
+// stream (rumi-manager serves it over DDS). A small fixed-size message on a
+// ring that overwrites its oldest: the tracking thread never waits, and a
+// reader that falls behind skips to the newest.
+struct FramePose {
+  Timestamp timestamp = 0;
+  TrackingState state = TrackingState::kInitializing;
+  int64_t submap_id = -1;
+  Se3 T_wc;  // camera -> submap frame; identity unless tracking or coarse
+};
+
+class PoseSender {
+ public:
+  explicit PoseSender(const IpcOptions& o);
+  PushStatus Send(const FramePose& p);  // never waits
+  RingProducer& ring() { return ring_; }
+
+ private:
+  RingProducer ring_;
+};
+
+class PoseReceiver {
+ public:
+  explicit PoseReceiver(const IpcOptions& o);
+  // The newest unread pose (older unread ones are skipped): kOk, kEmpty,
+  // kNotConnected (no front yet), kIncompatible. A malformed record is
+  // counted and skipped.
+  PopStatus ReceiveNewest(FramePose* p);
+  uint64_t decode_errors() const { return decode_errors_; }
 
  private:
   RingConsumer ring_;

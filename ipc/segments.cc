@@ -37,7 +37,7 @@ SegmentInfo Inspect(const std::string& name) {
 
 std::vector<std::string> InstanceSegmentNames(const std::string& instance) {
   return {SegmentName(instance, kWindowChannel), SegmentName(instance, kFrontSubmapChannel),
-          SegmentName(instance, kBackSubmapChannel)};
+          SegmentName(instance, kBackSubmapChannel), SegmentName(instance, kPoseChannel)};
 }
 
 std::vector<SegmentInfo> ListRumiSegments() {

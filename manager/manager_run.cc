@@ -97,6 +97,45 @@ nlohmann::json StatusJson(const ManagerService& service, const char* state) {
           {"last_save", st.last_save}};
 }
 
+// Forwards the front's newest frame pose (the poses ring) to the DDS server
+// every few milliseconds, in a thread of its own: the merge loop's rebuilds
+// take seconds and must not hold the live pose back.
+class PoseForwarder {
+ public:
+  PoseForwarder(const IpcOptions& ipc, MapServer* server) : rx_(ipc), server_(server) {
+    thread_ = std::thread([this] { Loop(); });
+  }
+  ~PoseForwarder() {
+    stop_ = true;
+    thread_.join();
+  }
+
+ private:
+  void Loop() {
+    Timestamp last = -1;
+    while (!stop_) {
+      FramePose p;
+      if (rx_.ReceiveNewest(&p) == PopStatus::kOk && p.timestamp != last) {
+        last = p.timestamp;
+        LivePose live;
+        live.timestamp = p.timestamp;
+        live.state = p.state == TrackingState::kTracking ? 1
+                     : p.state == TrackingState::kCoarse ? 2
+                     : p.state == TrackingState::kLost   ? 3
+                                                         : 0;
+        if (p.submap_id >= 0) live.submap = ToString(SubmapKey{SubmapSource::kFront, p.submap_id});
+        live.T_wc = p.T_wc;
+        server_->PublishPose(live);
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  }
+  PoseReceiver rx_;
+  MapServer* server_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
 }  // namespace
 
 bool RebuildDue(const ManagerLoopOptions& loop, double since_last_s, double last_rebuild_s) {
@@ -108,8 +147,16 @@ ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service
                            MapServer* server) {
   const auto start = std::chrono::steady_clock::now();
   SnapshotMaker snapshots(run.ipc.instance);
+  const auto detail = [&](const char* state) { return StatusDetailJson(*service, StatusJson(*service, state).dump()); };
   const auto publish = [&](const char* state) {
-    if (server) server->Publish(snapshots.Make(*service, state, StatusJson(*service, state).dump()));
+    if (server) server->Publish(snapshots.Make(*service, state, detail(state)));
+  };
+  // Between snapshots the status alone, every second (rumid's status changes too).
+  auto last_status = std::chrono::steady_clock::now();
+  const auto publish_status = [&](const char* state) {
+    if (!server || SecondsSince(last_status) < 1.0) return;
+    last_status = std::chrono::steady_clock::now();
+    server->PublishStatus(snapshots.MakeStatus(*service, state, detail(state)));
   };
   publish("running");
   Channel front("front submap", run.ipc, SubmapSource::kFront, run.loop.wait_for_producers_s);
@@ -157,6 +204,7 @@ ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service
       }
     }
     notifier.Heartbeat(StatusJson(*service, "idle"));
+    publish_status("running");
     if (!got) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   // Under rumid (finish) a restarted manager may see no producer at all: an
@@ -205,6 +253,8 @@ int RunManager(const ManagerRunOptions& run, const std::atomic<bool>* stop) {
     server = MapServer::Start(run.dds, run.ipc.instance, &why);
     if (!server) spdlog::error("manager: the map is not served over DDS: {}", why);
   }
+  std::unique_ptr<PoseForwarder> poses;
+  if (server) poses = std::make_unique<PoseForwarder>(run.ipc, server.get());
   try {
     switch (RunManagerLoop(run, &service, stop, server.get())) {
       case ManagerExit::kProducersDone:

@@ -3,9 +3,37 @@
 #include <algorithm>
 #include <chrono>
 
+#include <nlohmann/json.hpp>
+
+#include "manager/daemon/daemon_status.h"
 #include "manager/global_trajectory.h"
 
 namespace rumi {
+
+std::string StatusDetailJson(const ManagerService& service, const std::string& manager_status_json) {
+  nlohmann::json j = {{"manager", nlohmann::json::parse(manager_status_json, nullptr, false)}};
+  if (service.options().journal) {  // under rumid: its status file is in the same folder
+    nlohmann::json d;
+    if (ReadDaemonStatus(service.options().out_dir, &d, nullptr)) j["daemon"] = d;
+  }
+  return j.dump();
+}
+
+SnapshotStatus SnapshotMaker::MakeStatus(const ManagerService& service, const std::string& state,
+                                         const std::string& status_json) const {
+  SnapshotStatus s = last_;
+  const ManagerStats& st = service.stats();
+  s.instance = instance_;
+  s.state = state;
+  s.stamp_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                   std::chrono::system_clock::now().time_since_epoch())
+                   .count();
+  s.rebuilds = st.rebuilds;
+  s.last_save = st.last_save;
+  s.grid = st.grid;
+  s.json = status_json;
+  return s;
+}
 
 std::shared_ptr<const MapSnapshot> SnapshotMaker::Make(const ManagerService& service, const std::string& state,
                                                        const std::string& status_json) {
@@ -95,6 +123,7 @@ std::shared_ptr<const MapSnapshot> SnapshotMaker::Make(const ManagerService& ser
     s.grid.yaml = g.yaml;
     s.grid.S_gm = g.frame.S_gm;
   }
+  last_ = s.status;
   return snap;
 }
 

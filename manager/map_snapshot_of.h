@@ -20,6 +20,9 @@ class SnapshotMaker {
   // the status line rumi status shows for the manager.
   std::shared_ptr<const MapSnapshot> Make(const ManagerService& service, const std::string& state,
                                           const std::string& status_json);
+  // The status alone, between snapshots (counts of the map from the last one).
+  SnapshotStatus MakeStatus(const ManagerService& service, const std::string& state,
+                            const std::string& status_json) const;
 
  private:
   std::string instance_;
@@ -28,6 +31,11 @@ class SnapshotMaker {
   std::set<std::pair<std::string, std::string>> merges_, rejections_;
   int culled_ = -1;
   std::string last_save_;
+  SnapshotStatus last_;  // of the last snapshot
 };
+
+// What the status topic's `json` holds: {"manager": manager_status} plus,
+// under rumid, {"daemon": <state>/status.json} (what `rumi status` shows).
+std::string StatusDetailJson(const ManagerService& service, const std::string& manager_status_json);
 
 }  // namespace rumi

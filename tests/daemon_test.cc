@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <thread>
 
@@ -21,6 +22,7 @@
 #include "common/process/process_info.h"
 #include "common/process/subprocess.h"
 #include "ipc/segments.h"
+#include "manager/grid/grid_file.h"
 #include "tests/rumi_cli_util.h"
 
 namespace rumi {
@@ -227,6 +229,87 @@ TEST_F(Daemon, ACrashLoopGivesUpWithAClearLine) {
   EXPECT_NE(text.find("restarting it in 0.1 s"), std::string::npos) << text;
   EXPECT_NE(text.find("restarting it in 0.2 s"), std::string::npos) << text;  // backoff doubles
   EXPECT_EQ(Status(State("crash"))["state"], "failed");
+}
+
+// The live map over DDS (loopback): `rumi query` answers from rumid's
+// manager while the sequence plays: the live pose at frame rate, the
+// status, the trajectory, the points and the grid (metric from the
+// sequence's odometry, the robot's pose source).
+TEST_F(Daemon, ServesTheLiveMapOverDds) {
+  const std::string instance = "dds" + std::to_string(::getpid());
+  const std::string cfg = Config("dds", "dds: {enabled: true}\n");
+  {
+    std::string text = Slurp(cfg);
+    const std::string loop = "loop: true}";
+    text.replace(text.find(loop), loop.size(), "odometry: " + (seq_ / "odometry.txt").string() + ", " + loop);
+    std::ofstream(cfg) << text;
+  }
+  const std::string log = (dir_ / "rumid_dds.log").string();
+  pid_ = Start({"--config", cfg, "--instance", instance}, {}, log);
+  const std::string q = "query --instance " + instance + " ";
+  // The first saves come within seconds.
+  nlohmann::json st;
+  const auto t0 = Clock::now();
+  while (Since(t0) < 60) {
+    ASSERT_EQ(test::RunRumiLogged(q + "--timeout 30 status --json", dir_ / "dds_status.txt"), 0)
+        << Slurp(dir_ / "dds_status.txt");
+    st = nlohmann::json::parse(Slurp(dir_ / "dds_status.txt"), nullptr, false);
+    if (st.is_object() && !st.value("last_save", "").empty() && st.value("grid", "").rfind("grid ", 0) == 0) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  }
+  ASSERT_TRUE(st.is_object());
+  EXPECT_EQ(st.value("state", ""), "running") << st.dump();
+  EXPECT_GE(st.value("keyframes", 0), 5) << st.dump();
+  EXPECT_FALSE(st.value("last_save", "").empty()) << st.dump();
+  ASSERT_EQ(test::RunRumiLogged(q + "--timeout 60 pose --follow --count 30 --json", dir_ / "pose.txt"), 0)
+      << Slurp(dir_ / "pose.txt") << Slurp(log);
+  std::istringstream poses(Slurp(dir_ / "pose.txt"));
+  int n = 0, fine = 0, global = 0;
+  int64_t last_t = 0;
+  for (std::string line; std::getline(poses, line);) {
+    const auto j = nlohmann::json::parse(line, nullptr, false);
+    ASSERT_TRUE(j.is_object()) << line;
+    const int64_t t = j.value("t_ns", int64_t{0});
+    EXPECT_GT(t, last_t) << "poses arrive in frame order";
+    last_t = t;
+    fine += j.value("state", "") == "fine";
+    global += j.value("in_global", false);
+    ++n;
+  }
+  EXPECT_EQ(n, 30);
+  EXPECT_GE(fine, 20) << Slurp(dir_ / "pose.txt");  // a smooth walk: tracked
+  // Its submap is in the saved map by now: poses come in the global frame.
+  EXPECT_GT(global, 0) << "no pose in the global frame";
+
+  const fs::path grid = dir_ / "dds_grid" / "map.yaml";
+  fs::create_directories(grid.parent_path());
+  ASSERT_EQ(st.value("grid", "").rfind("grid ", 0), 0u) << st.dump();
+  ASSERT_EQ(test::RunRumiLogged(q + "grid -o " + grid.string(), dir_ / "dds_grid.txt"), 0)
+      << Slurp(dir_ / "dds_grid.txt");
+  // What a map_server reads: the header, its thresholds, the cells.
+  MapServerGrid g;
+  std::string why;
+  ASSERT_TRUE(ReadMapServerGrid(grid.string(), &g, &why)) << why;
+  EXPECT_EQ(g.image, "map.pgm");
+  EXPECT_DOUBLE_EQ(g.occupied_thresh, 0.65);
+  EXPECT_DOUBLE_EQ(g.free_thresh, 0.196);
+  EXPECT_DOUBLE_EQ(g.resolution, 0.05);
+  int free_cells = 0;
+  for (uint8_t v : g.pixels) free_cells += v == kPgmFree;
+  EXPECT_GT(free_cells, 100);
+  EXPECT_NE(Slurp(grid).find("rumi_scale_source: odometry"), std::string::npos) << Slurp(grid);
+
+  ASSERT_EQ(test::RunRumiLogged(q + "trajectory -o " + (dir_ / "dds_traj.txt").string(), dir_ / "dds_traj.log"), 0)
+      << Slurp(dir_ / "dds_traj.log");
+  EXPECT_GT(fs::file_size(dir_ / "dds_traj.txt"), 1000u);
+  ASSERT_EQ(test::RunRumiLogged(q + "points --json", dir_ / "dds_points.txt"), 0);
+  const auto pts = nlohmann::json::parse(Slurp(dir_ / "dds_points.txt"), nullptr, false);
+  ASSERT_TRUE(pts.is_object());
+  EXPECT_GT(pts.value("total", 0), 100);
+
+  ::kill(pid_, SIGTERM);
+  EXPECT_EQ(WaitExit(pid_, 20), 0) << Slurp(log);
+  pid_ = -1;
 }
 
 // Bad configs stop rumid at once with the file, the key and the reason.

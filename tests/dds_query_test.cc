@@ -136,6 +136,16 @@ TEST_F(DdsQueryTest, QueriesARunningManager) {
   EXPECT_EQ(Query("points --box 1,1,1,0,0,0", "badbox"), kExitError);
   EXPECT_NE(Log("badbox").find("box_min[0]"), std::string::npos) << Log("badbox");
 
+  // The C example of docs/dds.md reads the same.
+  ASSERT_EQ(std::system((test::BinPath("rumi-dds-example") + " " + instance_ + " lo > " + (dir_ / "example.log").string() +
+                         " 2>&1")
+                            .c_str()),
+            0)
+      << Slurp(dir_ / "example.log");
+  EXPECT_NE(Slurp(dir_ / "example.log").find("trajectory: " + std::to_string(st.value("trajectory_frames", -1)) + " poses"),
+            std::string::npos)
+      << Slurp(dir_ / "example.log");
+
   // No pose source in this scenario: no metric grid, and the reason.
   EXPECT_EQ(Query("grid", "grid"), kExitError);
   EXPECT_NE(Log("grid").find("no grid"), std::string::npos) << Log("grid");

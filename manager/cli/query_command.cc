@@ -16,6 +16,7 @@
 #include "common/trajectory.h"
 #include "configs/rumi_config.h"
 #include "manager/cli/commands.h"
+#include "manager/daemon/daemon_status.h"
 #include "manager/dds/map_client.h"
 #include "manager/dds/request_handler.h"
 
@@ -87,7 +88,10 @@ nlohmann::json StatusJson(const SnapshotStatus& s) {
                       {"components", s.components}, {"keyframes", s.keyframes},
                       {"points", s.points},       {"trajectory_frames", s.trajectory_frames},
                       {"last_save", s.last_save}, {"grid", s.grid}};
-  if (!s.json.empty()) j["manager"] = nlohmann::json::parse(s.json, nullptr, false);
+  // {"manager": ..., "daemon": rumid's status.json under rumid}
+  const nlohmann::json detail = nlohmann::json::parse(s.json, nullptr, false);
+  if (detail.is_object())
+    for (const auto& [k, v] : detail.items()) j[k] = v;
   return j;
 }
 
@@ -112,13 +116,16 @@ void Status(const QueryArgs& a) {
       "  trajectory {} frames, last save {}\n  grid: {}\n",
       s.instance, s.state, r.map_seq, s.submaps_front, s.submaps_back, s.components, s.keyframes, s.points,
       s.trajectory_frames, s.last_save.empty() ? "none yet" : s.last_save, s.grid.empty() ? "none yet" : s.grid);
+  const nlohmann::json detail = nlohmann::json::parse(s.json, nullptr, false);
+  if (detail.is_object() && detail.contains("daemon"))  // the table `rumi status` prints on the ground station
+    std::cout << FormatDaemonStatus(detail["daemon"], true);
 }
 
 void Pose(const QueryArgs& a) {
   const DdsOptions o = Options(a);
   auto c = Connect(a, o);
   int seen = 0;
-  const bool any = c->FollowPose(a.follow ? 0.0 : a.timeout, [&](const LivePose& p) {
+  const bool ended = c->FollowPose(a.timeout, [&](const LivePose& p) {
     if (a.json) {
       nlohmann::json j = PoseJson(p.timestamp, p.T_wc);
       j["state"] = StateName(p.state);
@@ -136,7 +143,8 @@ void Pose(const QueryArgs& a) {
     ++seen;
     return a.follow && (a.count == 0 || seen < a.count);
   });
-  if (!any) Fail(fmt::format("no pose within {} s (is the front tracking?)", a.timeout), kExitNoProducer);
+  if (!ended)
+    Fail(fmt::format("no pose for {} s ({} received; is a source streaming?)", a.timeout, seen), kExitNoProducer);
 }
 
 void TrajectoryCmd(const QueryArgs& a) {
@@ -328,7 +336,7 @@ void RegisterQueryCommand(CLI::App* app) {
 
   cmd->add_subcommand("status", "the manager's state and counts")->callback([a] { Status(*a); });
   CLI::App* pose = cmd->add_subcommand("pose", "the live camera pose");
-  pose->add_flag("--follow", a->follow, "keep printing poses");
+  pose->add_flag("--follow", a->follow, "keep printing poses (ends when none comes for --timeout s)");
   pose->add_option("--count", a->count, "with --follow: stop after this many");
   pose->callback([a] { Pose(*a); });
   CLI::App* traj = cmd->add_subcommand("trajectory", "the global trajectory (TUM)");

@@ -129,8 +129,10 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
   // when drained (a finished producer's closed segment would read as "done").
   for (const std::string& name : InstanceSegmentNames(o.instance)) {
     RingStats rs;
-    if (ReadRingStats(name, &rs) && !rs.producer_alive && !rs.consumer_alive && rs.tail >= rs.head &&
-        RemoveSegment(name))
+    if (!ReadRingStats(name, &rs)) continue;
+    // Unread poses are stale: the pose ring never waits for its reader.
+    const bool drained = rs.tail >= rs.head || name == SegmentName(o.instance, kPoseChannel);
+    if (!rs.producer_alive && !rs.consumer_alive && drained && RemoveSegment(name))
       spdlog::info("rumid: removed {}, drained, left by an earlier run", name);
   }
 
@@ -331,7 +333,7 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
   for (const std::string& name : InstanceSegmentNames(o.instance)) {
     RingStats rs;
     if (!ReadRingStats(name, &rs)) continue;
-    if (rs.tail >= rs.head) RemoveSegment(name);
+    if (rs.tail >= rs.head || name == SegmentName(o.instance, kPoseChannel)) RemoveSegment(name);
     else spdlog::warn("rumid: {} keeps {} unread message(s) for the next start", name, rs.head - rs.tail);
   }
   if (failure.empty()) state = "stopped";

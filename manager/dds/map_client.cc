@@ -215,8 +215,7 @@ bool MapClient::LatestStatus(double timeout_s, SnapshotStatus* status, std::stri
 }
 
 bool MapClient::FollowPose(double timeout_s, const std::function<bool(const LivePose&)>& f) {
-  const auto start = Clock::now();
-  bool any = false;
+  auto last = Clock::now();
   for (;;) {
     void* samples[1] = {nullptr};
     dds_sample_info_t info[1];
@@ -226,14 +225,14 @@ bool MapClient::FollowPose(double timeout_s, const std::function<bool(const Live
       if (info[0].valid_data) {
         const auto& d = *static_cast<const rumi_dds_PoseSample*>(samples[0]);
         LivePose p{d.stamp_ns, d.state, Str(d.submap), d.in_global, PoseFrom(d.t, d.q)};
-        any = true;
+        last = Clock::now();
         more = f(p);
       }
       dds_return_loan(pose_r_, samples, n);
       if (!more) return true;
       continue;
     }
-    if (timeout_s > 0 && Since(start) >= timeout_s) return any;
+    if (Since(last) >= timeout_s) return false;
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
 }

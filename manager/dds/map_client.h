@@ -46,8 +46,8 @@ class MapClient {
 
   // The last status the server published (transient-local), within timeout.
   bool LatestStatus(double timeout_s, SnapshotStatus* status, std::string* why);
-  // Calls f for each pose sample until f returns false or timeout_s passes
-  // (0: forever). False when none came.
+  // Calls f for each pose sample until f returns false (true), or until no
+  // pose came for timeout_s (false).
   bool FollowPose(double timeout_s, const std::function<bool(const LivePose&)>& f);
 
   uint64_t client_id() const { return client_id_; }

@@ -149,13 +149,40 @@ bool MapServer::Open(std::string* why) {
 void MapServer::Publish(std::shared_ptr<const MapSnapshot> snapshot) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    status_ = snapshot->status;
     latest_ = std::move(snapshot);
     fresh_ = true;
   }
   dds_set_guardcondition(wake_, true);
 }
 
-void MapServer::PublishPose(const LivePose& p) {
+void MapServer::PublishStatus(const SnapshotStatus& status) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    status_ = status;
+    status_fresh_ = true;
+  }
+  dds_set_guardcondition(wake_, true);
+}
+
+void MapServer::PublishPose(const LivePose& in) {
+  LivePose p = in;
+  const bool posed = p.state == 1 || p.state == 2;
+  std::shared_ptr<const MapSnapshot> snap;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    snap = latest_;
+  }
+  if (posed && !p.in_global && !p.submap.empty()) {
+    // Into the global frame once the front submap is part of the main component.
+    if (snap)
+      for (const SnapshotSubmap& s : snap->submaps)
+        if (s.key == p.submap && s.component == 0) {
+          p.T_wc = s.S_gl.TransformPose(p.T_wc);
+          p.in_global = true;
+          break;
+        }
+  }
   rumi_dds_PoseSample d{};
   d.instance = C(instance_);
   d.version = kDdsProtocolVersion;
@@ -165,12 +192,15 @@ void MapServer::PublishPose(const LivePose& p) {
   d.in_global = p.in_global;
   PoseTo(p.T_wc, d.t, d.q);
   dds_write(pose_w_, &d);  // best effort: never blocks
-  if (ros_pose_w_ > 0) {
+  if (ros_pose_w_ > 0 && p.in_global) {
     geometry_msgs_msg_dds__PoseStamped_ r{};
     r.header_.stamp_ = RosTime(p.timestamp);
-    static const std::string frame = "rumi_map";
-    r.header_.frame_id_ = C(frame);
-    r.pose_ = RosPose(p.T_wc);
+    // Only global poses (one in a submap's own frame would jump), in the
+    // frame of the other ROS topics: the grid's when there is one.
+    static const std::string map_frame = "map", rumi_frame = "rumi_map";
+    const bool metric = snap && snap->grid.ok;
+    r.header_.frame_id_ = C(metric ? map_frame : rumi_frame);
+    r.pose_ = RosPose(metric ? snap->grid.S_gm.TransformPose(p.T_wc) : p.T_wc);
     dds_write(ros_pose_w_, &r);
   }
 }
@@ -187,10 +217,18 @@ void MapServer::Loop() {
     bool woken = false;
     dds_take_guardcondition(wake_, &woken);
     std::shared_ptr<const MapSnapshot> s;
+    SnapshotStatus status;
+    bool status_only = false;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (fresh_) s = latest_;
-      fresh_ = false;
+      status_only = status_fresh_ && !fresh_;
+      if (status_only) status = status_;
+      fresh_ = status_fresh_ = false;
+    }
+    if (status_only) {
+      const rumi_dds_Status d = ToDds(status);
+      dds_write(status_w_, &d);
     }
     if (s) {
       PublishState(*s);
@@ -311,9 +349,11 @@ void MapServer::PublishRos(const MapSnapshot& s) {
 
 void MapServer::Answer(const rumi_dds_Request& r) {
   std::shared_ptr<const MapSnapshot> snap;
+  SnapshotStatus status;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     snap = latest_;
+    status = status_;
     ++counters_.requests;
   }
   const ReplyPlan plan = PlanReply(r, snap.get(), options_);
@@ -322,9 +362,10 @@ void MapServer::Answer(const rumi_dds_Request& r) {
     std::lock_guard<std::mutex> lock(mutex_);
     ++counters_.bad_requests;
   }
-  SnapshotStatus starting;
-  starting.instance = instance_;
-  starting.state = "starting";
+  if (status.instance.empty()) {
+    status.instance = instance_;
+    status.state = "starting";
+  }
   for (size_t k = 0; k < plan.chunks(); ++k) {
     const size_t b = plan.bounds[k], e = plan.bounds[k + 1];
     rumi_dds_Reply d{};
@@ -340,9 +381,9 @@ void MapServer::Answer(const rumi_dds_Request& r) {
     d.page = plan.page;
     d.pages = plan.pages;
     d.map_seq = snap ? snap->seq : -1;
-    std::vector<rumi_dds_Status> status;
-    if (plan.status) status.push_back(ToDds(snap ? snap->status : starting));
-    View(&d.status, status);
+    std::vector<rumi_dds_Status> statuses;
+    if (plan.status) statuses.push_back(ToDds(status));
+    View(&d.status, statuses);
     std::vector<rumi_dds_MapPoint> points;
     for (size_t i = b; i < e && i < plan.points.size(); ++i)
       points.push_back({{plan.points[i].x(), plan.points[i].y(), plan.points[i].z()}});

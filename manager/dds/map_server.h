@@ -42,6 +42,12 @@ class MapServer {
   ~MapServer();
 
   void Publish(std::shared_ptr<const MapSnapshot> snapshot);
+  // A status between snapshots (state changes, the daemon's status):
+  // published on the status topic and answered to status requests.
+  void PublishStatus(const SnapshotStatus& status);
+  // Best effort, never blocks. A pose in a front submap's frame goes out in
+  // the global frame when the latest snapshot has that submap in the main
+  // component (in_global), else as it is.
   void PublishPose(const LivePose& pose);
   MapServerCounters counters() const;
 
@@ -64,6 +70,8 @@ class MapServer {
   mutable std::mutex mutex_;
   std::shared_ptr<const MapSnapshot> latest_;  // guarded by mutex_
   bool fresh_ = false;                         // latest_ not published yet
+  SnapshotStatus status_;                      // the newest status, guarded by mutex_
+  bool status_fresh_ = false;
   MapServerCounters counters_;                 // guarded by mutex_
   std::atomic<bool> stop_{false};
   std::thread thread_;
