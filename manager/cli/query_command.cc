@@ -75,6 +75,14 @@ MapReply Call(MapClient* c, const QueryArgs& a, rumi_dds_Request q) {
   return r;
 }
 
+// Connects, asks once, returns the answer (exits on a time out or a refusal).
+MapReply Ask(const QueryArgs& a, int32_t kind, rumi_dds_Request q = {}) {
+  const DdsOptions o = Options(a);
+  auto c = Connect(a, o);
+  q.kind = kind;
+  return Call(c.get(), a, q);
+}
+
 nlohmann::json PoseJson(Timestamp t, const Se3& T) {
   const auto& q = T.rotation();
   const auto& p = T.translation();
@@ -101,11 +109,7 @@ const char* StateName(int s) {
 }
 
 void Status(const QueryArgs& a) {
-  const DdsOptions o = Options(a);
-  auto c = Connect(a, o);
-  rumi_dds_Request q{};
-  q.kind = rumi_dds_KIND_STATUS;
-  const MapReply r = Call(c.get(), a, q);
+  const MapReply r = Ask(a, rumi_dds_KIND_STATUS);
   const SnapshotStatus& s = r.status;
   if (a.json) {
     std::cout << StatusJson(s).dump(2) << "\n";
@@ -148,13 +152,10 @@ void Pose(const QueryArgs& a) {
 }
 
 void TrajectoryCmd(const QueryArgs& a) {
-  const DdsOptions o = Options(a);
-  auto c = Connect(a, o);
   rumi_dds_Request q{};
-  q.kind = rumi_dds_KIND_TRAJECTORY;
   q.from_ns = static_cast<int64_t>(std::llround(a.from_s * 1e9));
   q.to_ns = static_cast<int64_t>(std::llround(a.to_s * 1e9));
-  const MapReply r = Call(c.get(), a, q);
+  const MapReply r = Ask(a, rumi_dds_KIND_TRAJECTORY, q);
   Trajectory traj;
   for (const SnapshotPose& p : r.poses) traj.push_back({p.timestamp, p.T_wc});
   if (!a.out.empty()) {
@@ -234,11 +235,7 @@ void Points(const QueryArgs& a) {
 }
 
 void Keyframes(const QueryArgs& a) {
-  const DdsOptions o = Options(a);
-  auto c = Connect(a, o);
-  rumi_dds_Request q{};
-  q.kind = rumi_dds_KIND_KEYFRAMES;
-  const MapReply r = Call(c.get(), a, q);
+  const MapReply r = Ask(a, rumi_dds_KIND_KEYFRAMES);
   if (a.json) {
     nlohmann::json j = nlohmann::json::array();
     for (const SnapshotKeyframe& k : r.keyframes) {
@@ -258,11 +255,7 @@ void Keyframes(const QueryArgs& a) {
 }
 
 void Submaps(const QueryArgs& a) {
-  const DdsOptions o = Options(a);
-  auto c = Connect(a, o);
-  rumi_dds_Request q{};
-  q.kind = rumi_dds_KIND_SUBMAP;
-  const MapReply r = Call(c.get(), a, q);
+  const MapReply r = Ask(a, rumi_dds_KIND_SUBMAP);
   if (a.json) {
     nlohmann::json j = nlohmann::json::array();
     for (const SnapshotSubmap& s : r.submaps) {
@@ -282,11 +275,7 @@ void Submaps(const QueryArgs& a) {
 }
 
 void Grid(const QueryArgs& a) {
-  const DdsOptions o = Options(a);
-  auto c = Connect(a, o);
-  rumi_dds_Request q{};
-  q.kind = rumi_dds_KIND_GRID;
-  const MapReply r = Call(c.get(), a, q);
+  const MapReply r = Ask(a, rumi_dds_KIND_GRID);
   const MapServerGrid& g = r.grid.cells;
   if (!a.out.empty()) {
     // The served YAML's rumi keys (scale, up, map-to-grid) go along.

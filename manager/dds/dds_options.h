@@ -18,7 +18,10 @@ struct DdsOptions {
   std::string topic_prefix;
   bool ros2_compat = false;   // also publish ROS 2 shaped topics (rt/...)
   int max_page_points = 200000;   // a points page never holds more
-  int64_t chunk_bytes = 1 << 20;  // a reply sample stays below this (<= 4 MiB)
+  // A reply sample stays below this (<= 4 MiB). Smaller samples pipeline:
+  // 100k points (1.2 MB) took 4-5 ms in 128-256 KiB chunks, 20 ms in one
+  // (rumi-dds-bench --chunk-bytes, docs/dds.md).
+  int64_t chunk_bytes = 256 << 10;
   double reply_block_s = 0.1;     // a write to a slow client waits at most this long
   static const OptionSpec<DdsOptions>& Spec();  // section `dds:`
   bool Check(std::string* why = nullptr) const { return Spec().Check(*this, why); }

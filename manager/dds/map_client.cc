@@ -2,7 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <set>
 #include <random>
 #include <thread>
@@ -51,9 +53,12 @@ void Append(const rumi_dds_Reply& d, MapReply* r) {
   r->pages = d.pages;
   r->map_seq = d.map_seq;
   if (d.status._length > 0) r->status = FromDds(d.status._buffer[0]);
-  for (uint32_t i = 0; i < d.points._length; ++i) {
-    const float* x = d.points._buffer[i].xyz;
-    r->points.emplace_back(x[0], x[1], x[2]);
+  if (d.points._length > 0) {
+    static_assert(sizeof(rumi_dds_MapPoint) == sizeof(Eigen::Vector3f), "MapPoint is 3 packed floats");
+    if (r->points.empty()) r->points.reserve(static_cast<size_t>(std::max<int64_t>(d.total, 0)));
+    const size_t at = r->points.size();
+    r->points.resize(at + d.points._length);
+    std::memcpy(r->points[at].data(), d.points._buffer, d.points._length * sizeof(Eigen::Vector3f));
   }
   for (uint32_t i = 0; i < d.keyframes._length; ++i) {
     const rumi_dds_Keyframe& k = d.keyframes._buffer[i];
@@ -122,7 +127,14 @@ bool MapClient::Open(std::string* why) {
   reply_r_ = CreateReader(pp, rep, DdsQosKind::kRpc, why);
   status_r_ = CreateReader(pp, st, DdsQosKind::kState, why);
   pose_r_ = CreateReader(pp, po, DdsQosKind::kStream, why);
-  return request_w_ > 0 && reply_r_ > 0 && status_r_ > 0 && pose_r_ > 0;
+  if (request_w_ <= 0 || reply_r_ <= 0 || status_r_ <= 0 || pose_r_ <= 0) return false;
+  reply_ws_ = dds_create_waitset(pp);
+  const dds_entity_t cond = dds_create_readcondition(reply_r_, DDS_ANY_STATE);
+  if (reply_ws_ < 0 || cond < 0 || dds_waitset_attach(reply_ws_, cond, 0) < 0) {
+    if (why) *why = "cannot create the DDS waitset";
+    return false;
+  }
+  return true;
 }
 
 bool MapClient::WaitMatched(double timeout_s) {
@@ -184,13 +196,16 @@ bool MapClient::CallRaw(const rumi_dds_Request& request, double timeout_s, MapRe
       if (any && got.size() >= chunks) return true;
       continue;
     }
-    if (Since(start) >= timeout_s) {
+    const double left = timeout_s - Since(start);
+    if (left <= 0) {
       if (why)
         *why = any ? fmt::format("reply incomplete after {} s ({} of {} chunks)", timeout_s, got.size(), chunks)
                    : NoServerMessage(options_, instance_, timeout_s);
       return false;
     }
-    std::this_thread::sleep_for(std::chrono::microseconds(200));
+    // Until a sample is there, the next resend, or the time out.
+    const double wait = any ? left : std::min(left, std::max(0.0, 1.0 - Since(last_send)));
+    dds_waitset_wait(reply_ws_, nullptr, 0, static_cast<dds_duration_t>(wait * 1e9) + 1);
   }
 }
 

@@ -61,6 +61,7 @@ class MapClient {
   std::string instance_;
   DdsEntity participant_;
   dds_entity_t request_w_ = 0, reply_r_ = 0, status_r_ = 0, pose_r_ = 0;
+  dds_entity_t reply_ws_ = 0;  // wakes Call when a reply sample is there
   uint64_t client_id_ = 0;
   uint64_t next_request_ = 1;
 };

@@ -384,10 +384,13 @@ void MapServer::Answer(const rumi_dds_Request& r) {
     std::vector<rumi_dds_Status> statuses;
     if (plan.status) statuses.push_back(ToDds(status));
     View(&d.status, statuses);
-    std::vector<rumi_dds_MapPoint> points;
-    for (size_t i = b; i < e && i < plan.points.size(); ++i)
-      points.push_back({{plan.points[i].x(), plan.points[i].y(), plan.points[i].z()}});
-    View(&d.points, points);
+    // Points go out straight from the plan: the same 3 packed floats.
+    static_assert(sizeof(rumi_dds_MapPoint) == sizeof(Eigen::Vector3f), "MapPoint is 3 packed floats");
+    if (!plan.points.empty()) {
+      d.points._maximum = d.points._length = static_cast<uint32_t>(e - b);
+      d.points._buffer = reinterpret_cast<rumi_dds_MapPoint*>(const_cast<Eigen::Vector3f*>(plan.points.data() + b));
+      d.points._release = false;
+    }
     std::vector<rumi_dds_Keyframe> kfs;
     for (size_t i = b; i < e && i < plan.keyframes.size(); ++i) {
       const SnapshotKeyframe& k = *plan.keyframes[i];

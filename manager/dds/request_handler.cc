@@ -1,5 +1,6 @@
 #include "manager/dds/request_handler.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
 
@@ -96,11 +97,17 @@ ReplyPlan PlanReply(const rumi_dds_Request& r, const MapSnapshot* snap, const Dd
       const Eigen::Vector3d hi(r.box_max[0], r.box_max[1], r.box_max[2]);
       const int64_t size = r.page_size == 0 ? o.max_page_points : r.page_size;
       const int64_t skip = r.page * size;
-      for (const Eigen::Vector3f& x : snap->points) {
-        const Eigen::Vector3d d = x.cast<double>();
-        if (!all && ((d.array() < lo.array()).any() || (d.array() > hi.array()).any())) continue;
-        if (p.total >= skip && p.total < skip + size) p.points.push_back(x);
-        ++p.total;
+      if (all) {  // the common case: a slice, no test per point
+        p.total = static_cast<int64_t>(snap->points.size());
+        const int64_t b = std::min(skip, p.total), e = std::min(skip + size, p.total);
+        p.points.assign(snap->points.begin() + b, snap->points.begin() + e);
+      } else {
+        for (const Eigen::Vector3f& x : snap->points) {
+          const Eigen::Vector3d d = x.cast<double>();
+          if ((d.array() < lo.array()).any() || (d.array() > hi.array()).any()) continue;
+          if (p.total >= skip && p.total < skip + size) p.points.push_back(x);
+          ++p.total;
+        }
       }
       p.page = r.page;
       p.pages = (p.total + size - 1) / size;

@@ -99,7 +99,8 @@ TEST(RequestHandlerTest, PointsArePagedFilteredAndChunked) {
 }
 
 TEST(RequestHandlerTest, TrajectoryRangeSubmapAndGrid) {
-  const DdsOptions o;
+  DdsOptions o;
+  o.chunk_bytes = 1 << 20;
   MapSnapshot s = Snapshot(10);
   rumi_dds_Request r = Make(rumi_dds_KIND_TRAJECTORY);
   r.from_ns = 10000000000;
