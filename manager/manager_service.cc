@@ -387,7 +387,7 @@ bool ManagerService::WriteStats(std::string* why) const {
 bool ManagerService::WriteGrid(std::string* why) {
   if (!options_.grid.enabled || map_.size() == 0) return true;
   MapGridResult r;
-  const bool ok = WriteMapGrid(map_, options_.grid, {}, options_.out_dir, &r);
+  const bool ok = WriteMapGrid(map_, options_.grid, {}, options_.out_dir, &r, &live_grid_);
   if (ok || r.no_frame) grid_ = r;  // a write failure keeps the last grid served
   const std::string before = stats_.grid;
   stats_.grid = r.Summary();

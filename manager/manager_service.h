@@ -121,6 +121,7 @@ class ManagerService {
   bool unsaved_ = false;
   int written_components_ = 0;  // merged_<k>.txt files present
   MapGridResult grid_;
+  LiveGrid live_grid_;  // kept between saves: new keyframes are added to it
   ManagerStats stats_;
 };
 

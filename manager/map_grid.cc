@@ -1,6 +1,8 @@
 #include "manager/map_grid.h"
 
 #include <algorithm>
+#include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fmt/format.h>
 
@@ -41,17 +43,85 @@ Trajectory OdometryOf(const GlobalMap& map, int component) {
   return out;
 }
 
+const OccupancyGrid& LiveGrid::Update(const std::vector<GridKeyframe>& kfs, GridFrame* f, const GridOptions& o,
+                                      GridBuildStats* stats) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const double tol = o.cells.resolution_m / 4;
+  const double tol_rad = 0.1 * M_PI / 180;
+  // Keys: the n-th keyframe with a timestamp (a back and a front keyframe
+  // may share one).
+  std::vector<std::pair<Timestamp, int>> keys(kfs.size());
+  for (size_t i = 0; i < kfs.size(); ++i)
+    keys[i] = {kfs[i].timestamp, i > 0 && kfs[i - 1].timestamp == kfs[i].timestamp ? keys[i - 1].second + 1 : 0};
+  std::string why;
+  if (!have_) why = "first grid";
+  // The frame: kept when it moves no keyframe by more than the tolerance.
+  if (why.empty()) {
+    const double angle = S_gm_.rotation().angularDistance(f->S_gm.rotation());
+    bool same = angle <= tol_rad && std::abs(S_gm_.scale() / f->S_gm.scale() - 1) < 1e-3;
+    for (size_t i = 0; same && i < kfs.size(); ++i)
+      same = ((S_gm_ * kfs[i].T_wc.translation()) - (f->S_gm * kfs[i].T_wc.translation())).norm() <= tol;
+    if (same) f->S_gm = S_gm_;
+    else why = "the grid frame moved";
+  }
+  std::vector<size_t> fresh;
+  if (why.empty()) {
+    size_t kept = 0;
+    for (size_t i = 0; i < kfs.size() && why.empty(); ++i) {
+      auto it = placed_.find(keys[i]);
+      if (it == placed_.end()) {
+        fresh.push_back(i);
+        continue;
+      }
+      ++kept;
+      const Se3 T = S_gm_.TransformPose(kfs[i].T_wc);
+      if ((T.translation() - it->second.centre).norm() > tol || T.rotation().angularDistance(it->second.q) > tol_rad ||
+          kfs[i].points.size() != it->second.points)
+        why = kfs[i].points.size() != it->second.points ? "a keyframe sees other points" : "a keyframe moved";
+    }
+    if (why.empty() && kept != placed_.size()) why = "a keyframe was removed";
+  }
+  auto place = [&](size_t i) {
+    const Se3 T = S_gm_.TransformPose(kfs[i].T_wc);
+    placed_[keys[i]] = {T.translation(), T.rotation(), kfs[i].points.size()};
+  };
+  if (why.empty()) {
+    for (size_t i : fresh) {
+      AddKeyframeToGrid(kfs[i], S_gm_, o, &grid_, &stats_);
+      place(i);
+    }
+    last_added_ = static_cast<int>(fresh.size());
+    last_incremental_ = true;
+    ++incremental_;
+  } else {
+    S_gm_ = f->S_gm;
+    grid_ = BuildGrid(kfs, S_gm_, o, &stats_);
+    placed_.clear();
+    for (size_t i = 0; i < kfs.size(); ++i) place(i);
+    have_ = true;
+    last_added_ = static_cast<int>(kfs.size());
+    last_incremental_ = false;
+    reason_ = why;
+    ++rebuilds_;
+  }
+  stats_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (stats) *stats = stats_;
+  return grid_;
+}
+
 std::string MapGridResult::Summary() const {
   if (!ok) return why;
   return fmt::format(
       "grid {} x {} cells: {:.2f} m^2 free, {:.2f} m^2 occupied; {} keyframes, {} obstacle rays, {} floor rays, "
-      "{} points overhead; scale from {}, camera {:.3f} m above the floor; {:.3f} s",
+      "{} points overhead; scale from {}, camera {:.3f} m above the floor; {:.3f} s{}",
       width, height, free_m2, occupied_m2, stats.keyframes, stats.rays_hit, stats.rays_floor, stats.points_overhead,
-      frame.scale_source, frame.camera_height_m, stats.seconds);
+      frame.scale_source, frame.camera_height_m, stats.seconds,
+      incremental ? fmt::format(" (added {} keyframes)", added)
+                  : rebuild_reason.empty() ? "" : " (rebuilt: " + rebuild_reason + ")");
 }
 
 bool WriteMapGrid(const GlobalMap& map, const GridOptions& o, const Trajectory& odometry_in,
-                  const std::string& out_dir, MapGridResult* r) {
+                  const std::string& out_dir, MapGridResult* r, LiveGrid* live) {
   namespace fs = std::filesystem;
   *r = MapGridResult();
   if (map.size() == 0) {
@@ -68,8 +138,17 @@ bool WriteMapGrid(const GlobalMap& map, const GridOptions& o, const Trajectory& 
     r->why = "no metric grid: " + r->frame.why;
     return false;
   }
+  OccupancyGrid built;
+  if (live) {
+    live->Update(kfs, &r->frame, o, &r->stats);
+    r->incremental = live->last_incremental();
+    r->added = live->last_added();
+    if (!r->incremental) r->rebuild_reason = live->last_rebuild_reason();
+  } else {
+    built = BuildGrid(kfs, r->frame.S_gm, o, &r->stats);
+  }
   const GridFrame& f = r->frame;
-  const OccupancyGrid grid = BuildGrid(kfs, f.S_gm, o, &r->stats);
+  const OccupancyGrid& grid = live ? live->grid() : built;
   if (grid.width() == 0) {
     r->no_frame = true;
     r->why = "no grid: none of " + std::to_string(r->stats.rays_refused + r->stats.points_overhead) +

@@ -37,6 +37,10 @@ void Sim3To(const Sim3& S, double* v) {
   for (int i = 0; i < 3; ++i) v[5 + i] = S.translation()[i];
 }
 
+// The grid topics carry the whole grid in one sample: only up to this size
+// (a 100 x 100 m floor at 5 cm); a larger one is fetched in chunks.
+constexpr size_t kMaxStreamedGridBytes = 4u << 20;
+
 int64_t WallNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
       .count();
@@ -264,7 +268,12 @@ void MapServer::PublishState(const MapSnapshot& s) {
     d.detail = C(e.detail);
     dds_write(events_w_, &d);
   }
-  if (s.grid.ok) {
+  if (s.grid.ok && s.grid.cells.pixels.size() > kMaxStreamedGridBytes) {
+    if (!big_grid_said_)
+      spdlog::info("dds: the grid ({} cells) is above {} B: not streamed, answered to queries only",
+                   s.grid.cells.pixels.size(), kMaxStreamedGridBytes);
+    big_grid_said_ = true;
+  } else if (s.grid.ok) {
     std::vector<uint8_t> cells = s.grid.cells.pixels;
     rumi_dds_GridChunk g{};
     g.resolution = s.grid.cells.resolution;
@@ -288,7 +297,7 @@ void MapServer::PublishRos(const MapSnapshot& s) {
   std_msgs_msg_dds__Header_ h{};
   h.stamp_ = RosTime(s.status.stamp_ns);
   h.frame_id_ = C(metric ? map_frame : rumi_frame);
-  if (metric) {
+  if (metric && s.grid.cells.pixels.size() <= kMaxStreamedGridBytes) {
     const MapServerGrid& g = s.grid.cells;
     std::vector<int8_t> data(g.pixels.size());
     for (int row = 0; row < g.height; ++row)  // OccupancyGrid row 0 = bottom

@@ -66,6 +66,7 @@ class MapServer {
   dds_entity_t ros_map_w_ = 0, ros_path_w_ = 0, ros_points_w_ = 0, ros_pose_w_ = 0;
   dds_entity_t waitset_ = 0, request_cond_ = 0, wake_ = 0;
   int64_t event_seq_ = 0;
+  bool big_grid_said_ = false;  // the grid outgrew the grid topics (logged once)
 
   mutable std::mutex mutex_;
   std::shared_ptr<const MapSnapshot> latest_;  // guarded by mutex_
