@@ -64,11 +64,15 @@ bool WindowIntact(const ImageWindow& w) {
           if (write(fd, &r, sizeof(r)) != sizeof(r)) _exit(3);
         },
         0.001);
+    // Held until recorded, as rumi-manager holds a submap until it is
+    // journaled: a consumer killed in between gets it again on restart
+    // (without the hold, a kill right after the pop lost it).
     Submap s;
-    while (sr.Receive(&s, 0.0) == PopStatus::kOk) {
+    while (sr.Receive(&s, 0.0, /*hold=*/true) == PopStatus::kOk) {
       const bool ok = EncodeSubmap(s) == EncodeSubmap(ipc_test::MakeSubmap(s.id));
       Record r{1, ok ? 1 : 0, s.id};
       if (write(fd, &r, sizeof(r)) != sizeof(r)) _exit(3);
+      sr.Release();
     }
   }
   _exit(done ? 0 : 2);
