@@ -1,6 +1,7 @@
 #include "manager/grid/inverse_sensor_model.h"
 
 #include <cmath>
+#include <vector>
 
 namespace rumi {
 
@@ -31,6 +32,37 @@ double Ism(const InverseSensorModelOptions& o, double d, double band, double sig
   const double k = 1 / (sigma * std::sqrt(2.0));
   const double a = 0.5 * (1 + std::erf((d + band / 2) * k));  // P(noise puts the cell before the band's end)
   const double b = 0.5 * (1 + std::erf((d - band / 2) * k));  // ... before the band's start
+  return o.p_free * (1 - a) + o.p_occ * (a - b) + o.p_prior * b;
+}
+
+namespace {
+// The standard normal CDF on [-8, 8] every 1/256, interpolated linearly:
+// within 5e-7 of erf's (Φ'' <= 0.242, step^2 / 8 * 0.242).
+constexpr int kPhiPerUnit = 256, kPhiHalf = 8;
+const std::vector<double>& PhiTable() {
+  static const std::vector<double> t = [] {
+    std::vector<double> v(2 * kPhiHalf * kPhiPerUnit + 2);
+    for (size_t i = 0; i < v.size(); ++i)
+      v[i] = 0.5 * std::erfc(-(static_cast<double>(i) / kPhiPerUnit - kPhiHalf) / std::sqrt(2.0));
+    return v;
+  }();
+  return t;
+}
+}  // namespace
+
+double FastPhi(double x) {
+  const std::vector<double>& t = PhiTable();
+  const double u = (x + kPhiHalf) * kPhiPerUnit;
+  if (!(u > 0)) return 0;
+  if (u >= 2 * kPhiHalf * kPhiPerUnit) return 1;
+  const size_t i = static_cast<size_t>(u);
+  const double f = u - static_cast<double>(i);
+  return t[i] + f * (t[i + 1] - t[i]);
+}
+
+double FastIsm(const InverseSensorModelOptions& o, double d, double band, double sigma) {
+  if (sigma <= 0) return IdealIsm(o, d, band);
+  const double a = FastPhi((d + band / 2) / sigma), b = FastPhi((d - band / 2) / sigma);
   return o.p_free * (1 - a) + o.p_occ * (a - b) + o.p_prior * b;
 }
 

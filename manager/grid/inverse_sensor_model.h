@@ -41,6 +41,10 @@ double Ism(const InverseSensorModelOptions& o, double d, double band, double sig
 // How far past r the model still differs from the prior by more than 1e-3
 // of (p_occ - p_prior): where a ray's update may stop.
 double IsmReach(double band, double sigma);
+// Ism with the normal CDF from a table (within 5e-7 of Ism): the grid's
+// per-cell model, a few ns instead of two erf.
+double FastIsm(const InverseSensorModelOptions& o, double d, double band, double sigma);
+double FastPhi(double x);
 
 inline double LogOdds(double p) { return std::log(p / (1 - p)); }
 inline double Probability(double log_odds) { return 1 - 1 / (1 + std::exp(log_odds)); }

@@ -70,5 +70,16 @@ TEST(InverseSensorModel, OptionsChecked) {
   EXPECT_NE(why.find("p_free"), std::string::npos) << why;
 }
 
+TEST(InverseSensorModelTest, TableModelMatchesTheClosedForm) {
+  InverseSensorModelOptions o;
+  double worst = 0, worst_phi = 0;
+  for (double x = -9; x <= 9; x += 0.0013) worst_phi = std::max(worst_phi, std::abs(FastPhi(x) - 0.5 * std::erfc(-x / std::sqrt(2.0))));
+  for (double sigma : {0.005, 0.02, 0.1, 0.3, 1.0})
+    for (double band : {0.0707, 0.2, 0.5})
+      for (double d = -3; d <= 3; d += 0.0017) worst = std::max(worst, std::abs(FastIsm(o, d, band, sigma) - Ism(o, d, band, sigma)));
+  EXPECT_LT(worst_phi, 5e-7);
+  EXPECT_LT(worst, 5e-7);
+}
+
 }  // namespace
 }  // namespace rumi

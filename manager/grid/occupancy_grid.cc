@@ -109,10 +109,17 @@ bool OccupancyGrid::AddRay(const Eigen::Vector2d& from, const Eigen::Vector2d& t
   double t_c = dir.x() != 0 ? ((step_c > 0 ? c + 1 - s.x() : s.x() - c) * dt_c) : inf;
   double t_r = dir.y() != 0 ? ((step_r > 0 ? r + 1 - s.y() : s.y() - r) * dt_r) : inf;
   const int max_steps = std::abs(c_end - c) + std::abs(r_end - r) + 1;
+  // Well before the band the noisy model is p_free to 1e-12 (the Gaussian's
+  // tail beyond 7 sigma): no erf there, which is most of a long ray.
+  const double free_until = -band / 2 - 7 * sigma;
+  const double l_free = LogOdds(Ism(ism, free_until - 1.0, band, sigma)) - l0_;
+  // d: the cell centre's distance along the ray past the point, kept up to
+  // date as the traversal steps a column or a row.
+  double d = (CellCentre(c, r) - from).dot(dir) - range;
+  const double dd_c = step_c * res * dir.x(), dd_r = step_r * res * dir.y();
   for (int i = 0; i < max_steps; ++i) {
     if (c >= 0 && r >= 0 && c < width_ && r < height_) {
-      const double z = (CellCentre(c, r) - from).dot(dir);
-      const double l = LogOdds(Ism(ism, z - range, band, sigma)) - l0_;
+      const double l = d < free_until ? l_free : LogOdds(FastIsm(ism, d, band, sigma)) - l0_;
       float& cell = cells_[static_cast<size_t>(r) * width_ + c];
       cell = static_cast<float>(std::clamp(cell + l, l_min_, l_max_));
       ++cells_updated_;
@@ -121,9 +128,11 @@ bool OccupancyGrid::AddRay(const Eigen::Vector2d& from, const Eigen::Vector2d& t
     if (t_c < t_r) {
       c += step_c;
       t_c += dt_c;
+      d += dd_c;
     } else {
       r += step_r;
       t_r += dt_r;
+      d += dd_r;
     }
   }
   return true;
