@@ -13,6 +13,7 @@ PACKAGES=(
   cyclonedds-dev cyclonedds-tools colmap
   libgtest-dev libgmock-dev libbenchmark-dev
   systemd util-linux
+  clang libclang-rt-14-dev
 )
 
 SUDO=""

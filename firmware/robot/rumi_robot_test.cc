@@ -1,0 +1,251 @@
+#include "rumi_robot.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <memory>
+#include <vector>
+
+namespace {
+
+struct FakeHw {
+  uint64_t now = 1000000;
+  std::vector<std::vector<uint8_t>> sent;
+  std::vector<std::pair<int, int>> motion;  // (moving, gait) calls
+  int camera_calls = 0;
+  bool camera_fails = false;
+
+  static int Send(void* c, const uint8_t* d, size_t n) {
+    static_cast<FakeHw*>(c)->sent.emplace_back(d, d + n);
+    return 0;
+  }
+  static uint64_t Now(void* c) { return static_cast<FakeHw*>(c)->now; }
+  static void Motion(void* c, int moving, int gait) { static_cast<FakeHw*>(c)->motion.push_back({moving, gait}); }
+  static int Camera(void* c, int, int, int, int) {
+    auto* h = static_cast<FakeHw*>(c);
+    ++h->camera_calls;
+    return h->camera_fails ? -1 : 0;
+  }
+  rr_hw Hw() { return {this, Send, Now, Motion, Camera}; }
+
+  std::vector<rl_message> Parsed(int type) const {
+    std::vector<rl_message> out;
+    for (auto& d : sent) {
+      rl_message m;
+      EXPECT_EQ(rl_parse(d.data(), d.size(), &m), RL_OK);
+      if (m.h.type == type) out.push_back(m);
+    }
+    return out;
+  }
+};
+
+class RobotTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    robot_ = std::make_unique<rr_robot>();
+    rr_config c;
+    rr_config_default(&c);
+    c.robot_id = 5;
+    rr_hw hw = hw_.Hw();
+    rr_init(robot_.get(), &hw, &c);
+  }
+  // A datagram from the ground station.
+  void Receive(rl_message m) {
+    m.h.robot_id = 5;
+    m.h.seq = ground_seq_++;
+    uint8_t buf[RL_MAX_DATAGRAM];
+    size_t n = rl_encode(&m, buf, sizeof(buf));
+    ASSERT_GT(n, 0u);
+    rr_on_datagram(robot_.get(), buf, n);
+  }
+  static rl_message Msg(uint8_t type, uint32_t id = 0) {
+    rl_message m;
+    std::memset(&m, 0, sizeof(m));
+    m.h.type = type;
+    m.h.msg_id = id;
+    m.h.frag_count = 1;
+    return m;
+  }
+  static rl_message Control(uint32_t id, uint8_t cmd, int32_t a0 = 0, int32_t a1 = 0) {
+    rl_message m = Msg(RL_CONTROL, id);
+    m.u.control.command = cmd;
+    m.u.control.arg[0] = a0;
+    m.u.control.arg[1] = a1;
+    return m;
+  }
+  FakeHw hw_;
+  std::unique_ptr<rr_robot> robot_;
+  uint32_t ground_seq_ = 100;
+};
+
+TEST_F(RobotTest, FramesAreFragmentedAndResentOnNack) {
+  std::vector<uint8_t> img(5000);
+  for (size_t i = 0; i < img.size(); ++i) img[i] = static_cast<uint8_t>(i);
+  ASSERT_EQ(rr_send_frame(robot_.get(), img.data(), img.size(), 320, 240, RL_FORMAT_JPEG, 12, 777), 0);
+  auto frags = hw_.Parsed(RL_FRAME);
+  ASSERT_EQ(frags.size(), 4u);  // 5000 / 1420
+  std::vector<uint8_t> back(5000);
+  for (auto& f : frags) {
+    EXPECT_EQ(f.h.time_us, 777u);
+    EXPECT_EQ(f.h.frag_count, 4);
+    std::memcpy(back.data() + f.u.frame.meta.offset, f.u.frame.data, f.u.frame.len);
+  }
+  EXPECT_EQ(back, img);
+
+  hw_.sent.clear();
+  rl_message nack = Msg(RL_NACK, 0);
+  nack.u.nack.count = 2;
+  nack.u.nack.index[0] = 1;
+  nack.u.nack.index[1] = 3;
+  Receive(nack);
+  auto resent = hw_.Parsed(RL_FRAME);
+  ASSERT_EQ(resent.size(), 2u);
+  EXPECT_EQ(resent[0].h.frag_index, 1);
+  EXPECT_EQ(resent[1].h.frag_index, 3);
+  EXPECT_TRUE(resent[0].h.flags & RL_FLAG_RETRANSMIT);
+  EXPECT_EQ(robot_->stats.fragments_resent, 2u);
+
+  // A whole-frame NACK (none of it arrived) resends everything.
+  hw_.sent.clear();
+  Receive(Msg(RL_NACK, 0));
+  EXPECT_EQ(hw_.Parsed(RL_FRAME).size(), 4u);
+
+  // Frames older than the send buffer are gone: counted, nothing sent.
+  for (int i = 0; i < RR_KEEP_FRAMES; ++i) rr_send_frame(robot_.get(), img.data(), 100, 320, 240, RL_FORMAT_JPEG, 12, 0);
+  hw_.sent.clear();
+  Receive(Msg(RL_NACK, 0));
+  EXPECT_TRUE(hw_.Parsed(RL_FRAME).empty());
+  EXPECT_EQ(robot_->stats.nacks_too_old, 1u);
+}
+
+TEST_F(RobotTest, TooLargeFramesAreSkippedAndCounted) {
+  std::vector<uint8_t> big(RL_MAX_FRAME_BYTES + 1);
+  EXPECT_EQ(rr_send_frame(robot_.get(), big.data(), big.size(), 640, 480, RL_FORMAT_JPEG, 12, 0), -1);
+  EXPECT_EQ(robot_->stats.frames_skipped, 1u);
+  EXPECT_TRUE(hw_.sent.empty());
+}
+
+TEST_F(RobotTest, HaltResumeAreAckedAppliedOnceAndMoveTheServos) {
+  ASSERT_EQ(hw_.motion.back().first, 1);  // walks from the start
+  Receive(Control(1, RL_CMD_HALT));
+  EXPECT_FALSE(rr_moving(robot_.get()));
+  EXPECT_EQ(hw_.motion.back().first, 0);
+  auto acks = hw_.Parsed(RL_ACK);
+  ASSERT_EQ(acks.size(), 1u);
+  EXPECT_EQ(acks[0].h.msg_id, 1u);
+  EXPECT_EQ(acks[0].u.ack.result, RL_ACK_OK);
+  EXPECT_EQ(acks[0].u.ack.halted, 1);
+  // The ack was lost, the ground station retries: acked again, applied once.
+  const size_t motions = hw_.motion.size();
+  Receive(Control(1, RL_CMD_HALT));
+  EXPECT_EQ(hw_.Parsed(RL_ACK).size(), 2u);
+  EXPECT_EQ(robot_->stats.controls, 1u);
+  EXPECT_EQ(hw_.motion.size(), motions);
+  Receive(Control(2, RL_CMD_RESUME));
+  EXPECT_TRUE(rr_moving(robot_.get()));
+  EXPECT_EQ(hw_.motion.back().first, 1);
+}
+
+TEST_F(RobotTest, AStaleHeartbeatDoesNotUndoAHalt) {
+  rl_message hb = Msg(RL_HEARTBEAT);
+  hb.u.heartbeat.role = RL_ROLE_GROUND;
+  hb.u.heartbeat.halted = 0;
+  // Sent before the halt (lower sequence number) but delivered after it.
+  ground_seq_ = 200;
+  Receive(Control(3, RL_CMD_HALT));
+  ground_seq_ = 150;
+  Receive(hb);
+  EXPECT_FALSE(rr_moving(robot_.get()));
+  // A newer heartbeat that still wants the robot halted: halted.
+  ground_seq_ = 300;
+  hb.u.heartbeat.halted = 1;
+  Receive(hb);
+  EXPECT_FALSE(rr_moving(robot_.get()));
+  // The halt control and all its retries were lost, the heartbeat says resume.
+  hb.u.heartbeat.halted = 0;
+  Receive(hb);
+  EXPECT_TRUE(rr_moving(robot_.get()));
+}
+
+TEST_F(RobotTest, FailsafeStopsARobotThatHearsNothing) {
+  ASSERT_TRUE(rr_moving(robot_.get()));
+  hw_.now += 1999000;
+  rr_poll(robot_.get());
+  EXPECT_TRUE(rr_moving(robot_.get()));
+  hw_.now += 2000;
+  rr_poll(robot_.get());
+  EXPECT_FALSE(rr_moving(robot_.get()));
+  EXPECT_EQ(hw_.motion.back().first, 0);
+  EXPECT_EQ(robot_->stats.failsafe_stops, 1u);
+  // Heartbeats still go out while stopped, and say so.
+  auto hbs = hw_.Parsed(RL_HEARTBEAT);
+  ASSERT_FALSE(hbs.empty());
+  EXPECT_EQ(hbs.back().u.heartbeat.failsafe, 1);
+  // The ground station is back (a restarted one: sequence numbers from 0).
+  ground_seq_ = 0;
+  rl_message hb = Msg(RL_HEARTBEAT);
+  hb.u.heartbeat.role = RL_ROLE_GROUND;
+  Receive(hb);
+  EXPECT_TRUE(rr_moving(robot_.get()));
+  Receive(Control(1, RL_CMD_HALT));  // its first control id: applied
+  EXPECT_FALSE(rr_moving(robot_.get()));
+}
+
+TEST_F(RobotTest, TimeSyncEchoesAndStampsBothEnds) {
+  rl_message q = Msg(RL_TIME_REQ, 9);
+  q.u.time.t1 = 123456;
+  hw_.now = 5000000;
+  Receive(q);
+  auto r = hw_.Parsed(RL_TIME_RESP);
+  ASSERT_EQ(r.size(), 1u);
+  EXPECT_EQ(r[0].h.msg_id, 9u);
+  EXPECT_EQ(r[0].u.time.t1, 123456u);
+  EXPECT_EQ(r[0].u.time.t2, 5000000u);
+  EXPECT_GE(r[0].u.time.t3, r[0].u.time.t2);
+}
+
+TEST_F(RobotTest, ImuIsBatchedBySizeAndAge) {
+  rl_imu_sample s = {0, {0, 0, 9.8f}, {0, 0, 0}};
+  for (int i = 0; i < 25; ++i) {
+    s.t_us = hw_.now + i * 5000;
+    rr_add_imu(robot_.get(), &s);
+  }
+  EXPECT_EQ(hw_.Parsed(RL_IMU).size(), 2u);  // 10 + 10, 5 waiting
+  hw_.now += 200000;
+  rr_poll(robot_.get());
+  auto b = hw_.Parsed(RL_IMU);
+  ASSERT_EQ(b.size(), 3u);
+  EXPECT_EQ(b[2].u.imu.count, 5);
+  EXPECT_EQ(b[2].h.msg_id, 2u);
+}
+
+TEST_F(RobotTest, CameraCommandsValidateTheirArguments) {
+  Receive(Control(1, RL_CMD_QUALITY, 99));
+  Receive(Control(2, RL_CMD_QUALITY, 10));
+  Receive(Control(3, RL_CMD_FRAME_SIZE, 320, 240));
+  Receive(Control(4, 77));  // a command this firmware does not know
+  auto acks = hw_.Parsed(RL_ACK);
+  ASSERT_EQ(acks.size(), 4u);
+  EXPECT_EQ(acks[0].u.ack.result, RL_ACK_BAD_ARGUMENT);
+  EXPECT_EQ(acks[1].u.ack.result, RL_ACK_OK);
+  EXPECT_EQ(acks[2].u.ack.result, RL_ACK_OK);
+  EXPECT_EQ(acks[3].u.ack.result, RL_ACK_UNSUPPORTED);
+  EXPECT_EQ(hw_.camera_calls, 2);
+  EXPECT_EQ(robot_->quality, 10);
+  EXPECT_EQ(robot_->width, 320);
+}
+
+TEST_F(RobotTest, GarbageAndOtherRobotsAreCountedAndIgnored) {
+  std::vector<uint8_t> junk(100, 0x55);
+  rr_on_datagram(robot_.get(), junk.data(), junk.size());
+  rl_message c = Control(1, RL_CMD_HALT);
+  c.h.robot_id = 6;
+  uint8_t buf[RL_MAX_DATAGRAM];
+  size_t n = rl_encode(&c, buf, sizeof(buf));
+  rr_on_datagram(robot_.get(), buf, n);
+  EXPECT_EQ(robot_->stats.bad_datagrams, 2u);
+  EXPECT_TRUE(rr_moving(robot_.get()));
+  EXPECT_TRUE(hw_.Parsed(RL_ACK).empty());
+}
+
+}  // namespace

@@ -1,0 +1,32 @@
+#pragma once
+// The ground station's end of the robot link (config `source.link:`, read when
+// source.kind is link; docs/robot_link.md).
+#include <string>
+
+#include "common/option_spec.h"
+
+namespace rumi {
+
+struct LinkOptions {
+  std::string bind = "0.0.0.0:5600";  // UDP address the robot sends to (port 0: any, tests)
+  std::string robot;                  // robot's "ip:port"; "": learned from its datagrams
+  int robot_id = 1;
+  double frame_deadline_ms = 500;     // an incomplete frame is dropped this long after it was due
+  double nack_delay_ms = 60;          // first NACK this long after a frame's first fragment
+  double nack_interval_ms = 100;      // then again every this long
+  double heartbeat_ms = 500;          // ground heartbeat period (carries halt/resume)
+  double silence_s = 3.0;             // nothing from the robot this long: status "waiting"
+  double control_retry_ms = 200;      // resend an unacknowledged control this often
+  int control_retries = 25;           // then give up (logged); the heartbeat still carries halt
+  double sync_interval_ms = 250;      // a clock round trip this often (10 at 100 ms first)
+  int queue_frames = 8;               // complete frames waiting for the front; oldest dropped
+  std::string frames_log;             // CSV of every frame (latency, fragments); "" none
+  static const OptionSpec<LinkOptions>& Spec();
+  bool Check(std::string* why = nullptr) const { return Spec().Check(*this, why); }
+};
+
+// "host:port" -> parts; false (and *why) when it is not one. host may be
+// empty or "*" (any address).
+bool ParseHostPort(const std::string& s, std::string* host, int* port, std::string* why);
+
+}  // namespace rumi
