@@ -40,4 +40,10 @@ const OptionSpec<PinholeCameraOptions>& PinholeCameraOptions::Spec() {
 
 bool PinholeCameraOptions::Check(std::string* why) const { return Spec().Check(*this, why); }
 
+std::string CameraSectionYaml(const PinholeCameraOptions& camera) {
+  std::string out = PinholeCameraOptions::Spec().section() + ":\n";
+  for (const OptionInfo& o : PinholeCameraOptions::Spec().Describe(camera)) out += "  " + o.key + ": " + o.value + "\n";
+  return out;
+}
+
 }  // namespace rumi

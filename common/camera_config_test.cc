@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 
 #include "common/dataset_util.h"
@@ -72,6 +73,27 @@ TEST(CameraConfig, Errors) {
   EXPECT_NE(e.find("fy must be negative"), std::string::npos) << e;
   EXPECT_EQ(error("camera: {fy: -480, flipped_y: true}\n"), "");
   EXPECT_EQ(error("camera: {fx: 500}\n"), "");
+}
+
+TEST(CameraConfig, SectionYamlReadsBack) {
+  PinholeCameraOptions c;
+  c.width = 752, c.height = 480;
+  c.fx = 458.654321987654, c.fy = -457.296, c.cx = 367.215, c.cy = 248.375;
+  c.k1 = -0.283408, c.k2 = 0.0739591, c.p1 = 0.00019359;
+  c.p2 = 1.76187e-05, c.k3 = -1e-9;
+  c.flipped_y = true;
+  ConfigSection root = LoadConfigString(CameraSectionYaml(c), "c.yaml");
+  ConfigSection cam = root.Child("camera");
+  PinholeCameraOptions o;
+  ReadOptions(cam, &o);
+  EXPECT_NO_THROW(root.Finish());
+  EXPECT_EQ(o.width, 752);
+  EXPECT_EQ(o.height, 480);
+  EXPECT_TRUE(o.flipped_y);
+  for (auto [a, b] : {std::pair{o.fx, c.fx}, {o.fy, c.fy}, {o.cx, c.cx}, {o.cy, c.cy}, {o.k1, c.k1}, {o.k2, c.k2},
+                      {o.p1, c.p1}, {o.p2, c.p2}, {o.k3, c.k3}}) {
+    EXPECT_NEAR(a, b, 1e-11 * std::max(1e-6, std::abs(b)));
+  }
 }
 
 // Every shipped config's camera section is complete (no silent defaults) and

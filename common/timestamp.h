@@ -17,6 +17,11 @@ inline double NsToSeconds(Timestamp ns) { return static_cast<double>(ns) * 1e-9;
 inline double SecondsSince(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
+// The wall clock now (stamps of published state, not frame identity).
+inline Timestamp WallNowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
 Timestamp SecondsToNs(double seconds);
 
 // Parses a decimal seconds string ("1305031102.175304", "-1.5e-3") to ns

@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "front/frame_replay.h"
+#include "front/link_stream.h"
 
 namespace rumi {
 
@@ -20,8 +21,9 @@ const OptionSpec<SourceOptions>& SourceOptions::Spec() {
   using O = SourceOptions;
   static const auto* spec = [] {
     auto* s = new OptionSpec<O>("source");
-    s->Choice("kind", &O::kind, {"dataset", "capture"},
-              "dataset: a recorded sequence replayed live; capture: a camera, video file or stream");
+    s->Choice("kind", &O::kind, {"dataset", "capture", "link"},
+              "dataset: a recorded sequence replayed live; capture: a camera, video file or stream; "
+              "link: the robot link (UDP)");
     s->Choice("dataset", &O::dataset, {"tum", "euroc", "icl", "kitti", "folder"}, "dataset layout");
     s->Text("path", &O::path, "dataset folder; or /dev/videoN, a device index, a video file, an http:// stream");
     s->Number("rate", &O::rate, AtLeast(0.0), AtMost(1000.0), "dataset: x recorded speed; 0: as fast as possible");
@@ -35,6 +37,7 @@ const OptionSpec<SourceOptions>& SourceOptions::Spec() {
     s->Number("reconnect_initial_s", &O::reconnect_initial_s, Above(0.0), AtMost(3600.0),
               "capture: first wait before reopening (doubles)");
     s->Number("reconnect_max_s", &O::reconnect_max_s, Above(0.0), AtMost(3600.0), "capture: longest wait");
+    s->Section("link", &O::link, LinkOptions::Spec());
     s->Rule("reconnect_max_s must be >= reconnect_initial_s",
             [](const O& o) { return o.reconnect_max_s >= o.reconnect_initial_s; });
     return s;
@@ -261,7 +264,9 @@ std::unique_ptr<FrameStream> OpenFrameStream(const StreamOpenOptions& o) {
   std::string why;
   if (!o.source.Check(&why)) throw StreamError("source: " + why);
   if (o.source.kind == "dataset") return std::make_unique<DatasetStream>(o);
-  if (!o.camera) throw StreamError("source.kind capture needs a camera: section (its calibration) in the config");
+  if (!o.camera)
+    throw StreamError("source.kind " + o.source.kind + " needs a camera: section (its calibration) in the config");
+  if (o.source.kind == "link") return OpenLinkStream(o.source.link, *o.camera);
   return std::make_unique<CaptureStream>(o.source, *o.camera, o.start_ns);
 }
 

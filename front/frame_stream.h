@@ -12,6 +12,10 @@
 //    or stream that fails or stalls (no frame for stall_timeout_s) is
 //    reopened with a backoff; a file ends the stream at its end (or starts
 //    again with loop).
+//  - kind: link  the robot link (docs/robot_link.md): frames from the robot's
+//    ESP32-CAM over UDP (ipc/link), JPEG decoded here, capture timestamps on
+//    the ground clock through the link's clock sync; the stream halts and
+//    resumes the robot for the front's hierarchical mode.
 // A frame whose size is not the camera's is refused: StreamError (bad input).
 #include <atomic>
 #include <cstdint>
@@ -20,14 +24,17 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "common/camera.h"
 #include "common/dataset.h"
 #include "common/option_spec.h"
+#include "ipc/link/link_options.h"
 
 namespace rumi {
 
 struct SourceOptions {
-  std::string kind = "dataset";  // dataset | capture
+  std::string kind = "dataset";  // dataset | capture | link
   std::string dataset = "tum";   // dataset: tum|euroc|icl|kitti|folder
   // dataset: its folder. capture: /dev/videoN, a device index, a video file
   // or a URL (http://host:81/stream, rtsp://...).
@@ -44,6 +51,7 @@ struct SourceOptions {
   double stall_timeout_s = 3.0;  // capture: no frame for this long = stalled, reopen
   double reconnect_initial_s = 0.5;  // capture: first wait before reopening; doubles up to the max
   double reconnect_max_s = 10.0;
+  LinkOptions link;              // link: the robot link's ground end
   static const OptionSpec<SourceOptions>& Spec();
   bool Check(std::string* why = nullptr) const { return Spec().Check(*this, why); }
 };
@@ -69,13 +77,19 @@ class FrameStream {
   virtual uint64_t unreadable() const = 0;  // frames that could not be decoded
   // Added to the dataset's listed timestamps (a looped dataset); 0 otherwise.
   virtual Timestamp timestamp_offset() const { return 0; }
+  // Details for the status (the link's statistics); null when none. Any thread.
+  virtual nlohmann::json Detail() const { return nullptr; }
+  // A source that can stop the robot (the link): halt while the front wants
+  // it (hierarchical mode). True when the robot confirmed what was asked.
+  virtual bool SetHalt(bool /*halt*/) { return true; }
+  virtual bool can_halt() const { return false; }
 };
 
 struct StreamOpenOptions {
   SourceOptions source;
   // dataset: the rumi config (its camera: section, see source.calibration).
   std::string config_path;
-  // capture: the camera (required: a capture has no calibration of its own).
+  // capture, link: the camera (required: they have no calibration of their own).
   const PinholeCameraOptions* camera = nullptr;
   // Clock time (steady, ns) the session started: a dataset's first frame is
   // due then; a video file is sought to now - start on open (a restarted

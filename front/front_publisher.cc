@@ -255,6 +255,11 @@ void FrontPublisher::SetSourceStatus(std::function<std::string()> status) {
   source_status_ = std::move(status);
 }
 
+void FrontPublisher::SetSourceDetail(std::function<nlohmann::json()> detail) {
+  std::lock_guard<std::mutex> l(source_mutex_);
+  source_detail_ = std::move(detail);
+}
+
 void FrontPublisher::Report() {
   nlohmann::json j;
   {
@@ -267,6 +272,10 @@ void FrontPublisher::Report() {
   {
     std::lock_guard<std::mutex> l(source_mutex_);
     if (source_status_) j["source"] = source_status_();
+    if (source_detail_) {
+      nlohmann::json d = source_detail_();
+      if (!d.is_null()) j["link"] = std::move(d);
+    }
   }
   j["process"] = "front";
   j["frames"] = seen_.frames;
@@ -459,6 +468,13 @@ bool FrontPublisher::WriteFinalFiles(const std::vector<Submap>& finished) {
   j["publisher_us_median"] = st.on_frame_us_median;
   j["publisher_us_p99"] = st.on_frame_us_p99;
   j["publisher_us_max"] = st.on_frame_us_max;
+  {
+    std::lock_guard<std::mutex> l(source_mutex_);
+    if (source_detail_) {
+      nlohmann::json d = source_detail_();
+      if (!d.is_null()) j["link"] = std::move(d);  // the robot link's final statistics
+    }
+  }
   const std::string path = o_.out_dir + "/front_stats.json";
   const std::string tmp = path + ".tmp";
   {

@@ -112,6 +112,9 @@ class FrontPublisher {
   // Polled by the publisher thread for its status reports (the frame
   // source's state: streaming, reconnecting, ...). Must be thread-safe.
   void SetSourceStatus(std::function<std::string()> status);
+  // The source's details (the robot link's statistics) as "link" in the
+  // status; null: none.
+  void SetSourceDetail(std::function<nlohmann::json()> detail);
 
  private:
   struct FrameLine {
@@ -195,6 +198,7 @@ class FrontPublisher {
   Notifier notifier_;
   std::mutex source_mutex_;
   std::function<std::string()> source_status_;
+  std::function<nlohmann::json()> source_detail_;
   std::thread thread_;
 };
 

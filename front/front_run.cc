@@ -7,6 +7,7 @@
 #include <exception>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <thread>
 #include <vector>
 
@@ -14,6 +15,7 @@
 #include "common/process/notify.h"
 #include "common/trajectory.h"
 #include "front/front.h"
+#include "front/halt_control.h"
 
 namespace rumi {
 
@@ -63,6 +65,9 @@ int RunFront(const FrontRunOptions& o, const std::atomic<bool>* stop) {
   auto stopped = [&] { return stop_flag.load() || (stop && stop->load()); };
   cv::setNumThreads(1);  // shared cores: OpenCV threads would fight tracking + mapping
   size_t n = 0, used = 0;
+  const auto run_start = std::chrono::steady_clock::now();
+  std::mutex halt_mutex;  // halt_stats: the tracking thread writes, the publisher reads
+  HaltStats halt_stats;
   try {
     Front front(o.front, stream->camera(), o.first_submap_id);
     FrontPublisherOptions popt = o.publisher;
@@ -70,6 +75,24 @@ int RunFront(const FrontRunOptions& o, const std::atomic<bool>* stop) {
     FrontPublisher pub(popt, o.ipc, o.sampler, stream->camera().options());
     FrameStream* source = stream.get();
     pub.SetSourceStatus([source] { return source->Status(); });
+    // Hierarchical mode over the robot link: the robot halts while its
+    // finished submap merges (HaltControl, the manager's map notices).
+    const bool halting = o.front.hierarchical && stream->can_halt();
+    HaltControl halt(o.stream.source.link.max_halt_s);
+    std::unique_ptr<MapNoticeReceiver> notices;
+    if (halting) notices = std::make_unique<MapNoticeReceiver>(o.ipc);
+    MapNotice map_notice;
+    pub.SetSourceDetail([source, halting, &halt_mutex, &halt_stats] {
+      nlohmann::json d = source->Detail();
+      if (halting && d.is_object()) {
+        std::lock_guard<std::mutex> l(halt_mutex);
+        d["halts"] = {{"halts", halt_stats.halts},
+                      {"resumed_on_merge", halt_stats.resumed_on_merge},
+                      {"resumed_on_timeout", halt_stats.resumed_on_timeout},
+                      {"longest_s", halt_stats.longest_halt_s}};
+      }
+      return d;
+    });
     spdlog::info("front: {}, instance {}, out {}{}", stream->Describe(), o.ipc.instance, popt.out_dir,
                  o.first_submap_id ? ", first submap id " + std::to_string(o.first_submap_id) : "");
     if (!odometry.empty())
@@ -114,13 +137,30 @@ int RunFront(const FrontRunOptions& o, const std::atomic<bool>* stop) {
           ++next_odometry;
         }
       }
+      const int64_t submap_before = front.current_submap_id();
+      const bool coarse_before = front.halt();
       const FrameRecord rec = front.Track(frame.timestamp, frame.image);
+      if (halting) {
+        const auto& fin = front.FinishedSubmaps();
+        const bool finished = !coarse_before && front.halt() && !fin.empty() && fin.back().id == submap_before;
+        notices->ReceiveNewest(&map_notice);  // keeps the last one when there is none new
+        const Timestamp finished_end = finished && !fin.back().frames.empty() ? fin.back().frames.back().timestamp : 0;
+        const bool want = halt.Update(finished ? submap_before : -1, finished_end, map_notice.front_submap_upto,
+                                      map_notice.front_submap_end, SecondsSince(run_start));
+        stream->SetHalt(want);
+        std::lock_guard<std::mutex> l(halt_mutex);
+        halt_stats = halt.stats();
+      }
       const FrameTiming& tm = front.timings().back();
       pub.OnFrame(rec, frame.image, tm.total_ms, tm.cpu_ms, front.current_submap_keyframes(), front.FinishedSubmaps(),
                   snapshot);
       front.TrimFinished(pub.finished_taken());  // the publisher holds its copies
       ++n;
       ++used;
+    }
+    if (halting) {
+      stream->SetHalt(false);  // never leave the robot standing
+      spdlog::info("front: robot link: {}", halt.Describe());
     }
     const bool by_signal = stop && stop->load();
     if (by_signal) spdlog::info("front: stop requested after {} frames: finishing", n);

@@ -62,6 +62,24 @@ RingLayout WindowLayout(const IpcOptions& o) {
 }
 // 64 frames of slack (2 s at 30 Hz) of 128 bytes; always the newest.
 RingLayout PoseLayout() { return {64, 128, OverflowPolicy::kDropOldest}; }
+RingLayout NoticeLayout() { return {16, 64, OverflowPolicy::kDropOldest}; }
+constexpr uint32_t kNoticeMagic = 0x3254434e;  // "NCT2"
+constexpr size_t kNoticeBytes = 4 + 8 + 8 + 4 + 8;
+// The newest-wins rings: reads every unread message; decode(data, n) keeps
+// the ones it accepts (true), so the last accepted is the newest. kOk if one
+// was, else the ring's status.
+template <typename F>
+PopStatus ReadNewest(RingConsumer& ring, F&& decode) {
+  bool got = false;
+  for (;;) {
+    const uint8_t* data = nullptr;
+    size_t n = 0;
+    const PopStatus st = ring.Peek(&data, &n, 0.0);
+    if (st != PopStatus::kOk) return got ? PopStatus::kOk : st;
+    got |= decode(data, n);
+    ring.Release();
+  }
+}
 constexpr uint32_t kPoseMagic = 0x31534f50;  // "POS1"
 constexpr size_t kPoseBytes = 4 + 8 + 1 + 8 + 7 * 8;
 RingLayout SubmapLayout(const IpcOptions& o) {
@@ -164,12 +182,7 @@ PushStatus PoseSender::Send(const FramePose& p) {
 PoseReceiver::PoseReceiver(const IpcOptions& o) : ring_(SegmentName(o.instance, kPoseChannel), PoseLayout()) {}
 
 PopStatus PoseReceiver::ReceiveNewest(FramePose* out) {
-  bool got = false;
-  for (;;) {
-    const uint8_t* data = nullptr;
-    size_t n = 0;
-    const PopStatus st = ring_.Peek(&data, &n, 0.0);
-    if (st != PopStatus::kOk) return got ? PopStatus::kOk : st;
+  return ReadNewest(ring_, [&](const uint8_t* data, size_t n) {
     FramePose p;
     bool ok = n == kPoseBytes;
     if (ok) {
@@ -187,14 +200,43 @@ PopStatus PoseReceiver::ReceiveNewest(FramePose* out) {
         p.T_wc = Se3::FromUnitQuaternion(Eigen::Quaterniond(v[6], v[3], v[4], v[5]), Eigen::Vector3d(v[0], v[1], v[2]));
       }
     }
-    ring_.Release();
     if (!ok) {
       ++decode_errors_;
-      continue;
+      return false;
     }
     *out = p;
-    got = true;
-  }
+    return true;
+  });
+}
+
+MapNoticeSender::MapNoticeSender(const IpcOptions& o)
+    : ring_(SegmentName(o.instance, kMapNoticeChannel), NoticeLayout()) {}
+
+PushStatus MapNoticeSender::Send(const MapNotice& n) {
+  return ring_.Push(kNoticeBytes, [&](uint8_t* dst) {
+    BufferWriter w(dst, kNoticeBytes);
+    w.Put(kNoticeMagic);
+    w.Put(n.front_submap_upto);
+    w.Put(n.front_submap_end);
+    w.Put(n.components);
+    w.Put(n.t);
+  });
+}
+
+MapNoticeReceiver::MapNoticeReceiver(const IpcOptions& o)
+    : ring_(SegmentName(o.instance, kMapNoticeChannel), NoticeLayout()) {}
+
+PopStatus MapNoticeReceiver::ReceiveNewest(MapNotice* out) {
+  return ReadNewest(ring_, [&](const uint8_t* data, size_t n) {
+    if (n != kNoticeBytes) return false;
+    BufferReader r(data, n, "map notice");
+    if (r.Get<uint32_t>() != kNoticeMagic) return false;
+    out->front_submap_upto = r.Get<int64_t>();
+    out->front_submap_end = r.Get<Timestamp>();
+    out->components = r.Get<int32_t>();
+    out->t = r.Get<Timestamp>();
+    return true;
+  });
 }
 
 }  // namespace rumi

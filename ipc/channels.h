@@ -4,6 +4,7 @@
 //   front_submaps  front -> manager  Submap       (ipc/submap_codec)
 //   back_submaps   back  -> manager  Submap
 //   poses          front -> manager  FramePose (every frame; the newest wins)
+//   map_notices    manager -> front  MapNotice (after every rebuild; the newest wins)
 // Segment names are rumi_<instance>_<channel>, so instances run side by side.
 #include <memory>
 #include <string>
@@ -35,6 +36,7 @@ constexpr const char* kWindowChannel = "windows";
 constexpr const char* kFrontSubmapChannel = "front_submaps";
 constexpr const char* kBackSubmapChannel = "back_submaps";
 constexpr const char* kPoseChannel = "poses";
+constexpr const char* kMapNoticeChannel = "map_notices";
 const char* SubmapChannel(SubmapSource source);  // kFront / kBack (kMerged is never sent)
 
 class WindowSender {
@@ -135,6 +137,37 @@ class PoseReceiver {
  private:
   RingConsumer ring_;
   uint64_t decode_errors_ = 0;
+};
+
+// What the manager has built, for the front: after every rebuild, the newest
+// front submap the global map now holds. The front halts the robot on
+// entering the coarse state and resumes it once its finished submap is in
+// the map (the rat-robot paper's halt while the submaps merge). Same ring
+// shape as the poses: the manager never waits, the front reads the newest.
+struct MapNotice {
+  int64_t front_submap_upto = -1;  // highest front submap id in the map (-1: none)
+  Timestamp front_submap_end = 0;  // its last frame (a snapshot of one being built ends earlier)
+  int32_t components = 0;
+  Timestamp t = 0;                 // wall clock of the rebuild's end
+};
+
+class MapNoticeSender {
+ public:
+  explicit MapNoticeSender(const IpcOptions& o);
+  PushStatus Send(const MapNotice& n);  // never waits
+
+ private:
+  RingProducer ring_;
+};
+
+class MapNoticeReceiver {
+ public:
+  explicit MapNoticeReceiver(const IpcOptions& o);
+  // The newest unread notice: kOk, kEmpty, kNotConnected (no manager yet).
+  PopStatus ReceiveNewest(MapNotice* n);
+
+ private:
+  RingConsumer ring_;
 };
 
 }  // namespace rumi

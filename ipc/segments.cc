@@ -37,7 +37,12 @@ SegmentInfo Inspect(const std::string& name) {
 
 std::vector<std::string> InstanceSegmentNames(const std::string& instance) {
   return {SegmentName(instance, kWindowChannel), SegmentName(instance, kFrontSubmapChannel),
-          SegmentName(instance, kBackSubmapChannel), SegmentName(instance, kPoseChannel)};
+          SegmentName(instance, kBackSubmapChannel), SegmentName(instance, kPoseChannel),
+          SegmentName(instance, kMapNoticeChannel)};
+}
+
+bool NewestWinsSegment(const std::string& instance, const std::string& name) {
+  return name == SegmentName(instance, kPoseChannel) || name == SegmentName(instance, kMapNoticeChannel);
 }
 
 std::vector<SegmentInfo> ListRumiSegments() {

@@ -18,6 +18,9 @@ namespace rumi {
 
 // The instance's segments, one per channel (windows, front_submaps, back_submaps).
 std::vector<std::string> InstanceSegmentNames(const std::string& instance);
+// Rings whose reader only wants the newest message (poses, map notices):
+// unread messages in them are stale, never worth keeping for a restart.
+bool NewestWinsSegment(const std::string& instance, const std::string& name);
 
 struct SegmentInfo {
   std::string name;

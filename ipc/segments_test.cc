@@ -69,7 +69,7 @@ TEST(Segments, StaleSegmentsOfDeadOwnersAreReclaimedLiveOnesAreKept) {
   // Removing an instance's segments: stale ones only, or all of them.
   EXPECT_TRUE(RemoveInstanceSegments(live.instance, false).empty());
   EXPECT_EQ(RemoveInstanceSegments(kept.instance, false).size(), 2u);
-  EXPECT_EQ(InstanceSegmentNames(live.instance).size(), 4u);
+  EXPECT_EQ(InstanceSegmentNames(live.instance).size(), 5u);
 }
 
 }  // namespace

@@ -163,6 +163,7 @@ ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service
   Channel back("back submap", run.ipc, SubmapSource::kBack, run.loop.wait_for_producers_s);
   Notifier notifier;
   notifier.Ready();
+  MapNoticeSender notices(run.ipc);  // tells the front what the map holds (halt/resume)
   auto last_rebuild = start - std::chrono::hours(1);
   ManagerExit result = ManagerExit::kProducersDone;
   std::string why;
@@ -174,7 +175,15 @@ ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service
     const bool ok = service->Rebuild(&why, cancel);
     last_rebuild = std::chrono::steady_clock::now();
     publish("running");
-    if (ok) return true;
+    if (ok) {
+      MapNotice n;
+      n.front_submap_upto = service->stats().front_submap_upto;
+      n.front_submap_end = service->stats().front_submap_upto_end;
+      n.components = service->stats().components;
+      n.t = WallNowNs();
+      notices.Send(n);
+      return true;
+    }
     if (stop && stop->load()) spdlog::info("manager: {}", why);  // nothing was changed
     else spdlog::error("manager: {}", why);
     return false;

@@ -271,6 +271,15 @@ bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel) 
   for (const auto& kv : received_) replaced.push_back(kv.first);
   GlobalMap map = CopyWithout(base_, replaced);
   for (const auto& kv : received_) map.AddSubmap(kv.second);
+  // The newest front submap and how far its frames go (a resent snapshot of
+  // a submap still being built ends earlier than its finished version).
+  int64_t front_upto = -1;
+  Timestamp front_upto_end = 0;
+  for (const auto& kv : received_)
+    if (kv.first.source == SubmapSource::kFront && kv.first.id >= front_upto) {
+      front_upto = kv.first.id;
+      front_upto_end = kv.second.frames.empty() ? 0 : kv.second.frames.back().timestamp;
+    }
   const auto abandoned = [&] {
     if (!(cancel && cancel->load())) return false;
     if (why) *why = "rebuild abandoned: stop requested";
@@ -282,6 +291,8 @@ bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel) 
     reports.push_back(std::move(r));
   if (abandoned()) return false;
   stats_.reports = std::move(reports);
+  stats_.front_submap_upto = front_upto;
+  stats_.front_submap_upto_end = front_upto_end;
   for (MergeReport& r : OdometryMergeAll(&map, options_.manager)) stats_.reports.push_back(std::move(r));
   stats_.merges_replayed = merge_memo_.hits();
   stats_.merge_attempts = int(stats_.reports.size());

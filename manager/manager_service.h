@@ -60,6 +60,8 @@ struct ManagerStats {
   int saved_frames = 0, saved_frames_postculled = 0;  // keyframes before / after culling
   int submaps_front = 0, submaps_back = 0, components = 0;
   int base_submaps = 0;  // submaps reloaded from the map file at start
+  int64_t front_submap_upto = -1;  // highest front submap id in the last rebuild
+  Timestamp front_submap_upto_end = 0;  // its last frame
   int trajectory_frames = 0;  // frames of merged.txt
   double last_rebuild_seconds = 0;
   std::string grid;  // the last grid's summary, or why there is none

@@ -25,9 +25,7 @@ SnapshotStatus SnapshotMaker::MakeStatus(const ManagerService& service, const st
   const ManagerStats& st = service.stats();
   s.instance = instance_;
   s.state = state;
-  s.stamp_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                   std::chrono::system_clock::now().time_since_epoch())
-                   .count();
+  s.stamp_ns = WallNowNs();
   s.rebuilds = st.rebuilds;
   s.last_save = st.last_save;
   s.grid = st.grid;
@@ -44,9 +42,7 @@ std::shared_ptr<const MapSnapshot> SnapshotMaker::Make(const ManagerService& ser
   s.seq = ++seq_;
   s.status.instance = instance_;
   s.status.state = state;
-  s.status.stamp_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                          std::chrono::system_clock::now().time_since_epoch())
-                          .count();
+  s.status.stamp_ns = WallNowNs();
   s.status.rebuilds = st.rebuilds;
   s.status.submaps_front = st.submaps_front;
   s.status.submaps_back = st.submaps_back;

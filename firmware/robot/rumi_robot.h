@@ -23,7 +23,7 @@ extern "C" {
 #endif
 
 #ifndef RR_KEEP_FRAMES
-#define RR_KEEP_FRAMES 4 /* frames kept for NACKs: 400 ms at 10 fps */
+#define RR_KEEP_FRAMES 16 /* frames kept for NACKs: 530 ms at 30 fps (the firmware: 6 at 10 fps) */
 #endif
 #ifndef RR_FRAME_CAP
 #define RR_FRAME_CAP RL_MAX_FRAME_BYTES /* the firmware sets 64 KiB (QVGA/VGA JPEG) */

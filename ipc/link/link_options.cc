@@ -41,12 +41,16 @@ const OptionSpec<LinkOptions>& LinkOptions::Spec() {
     s->Number("nack_interval_ms", &O::nack_interval_ms, Above(0.0), AtMost(10000.0), "NACK again every this long");
     s->Number("heartbeat_ms", &O::heartbeat_ms, Above(0.0), AtMost(60000.0), "ground heartbeat period");
     s->Number("silence_s", &O::silence_s, Above(0.0), AtMost(3600.0), "robot silent this long: status waiting");
+    s->Number("end_after_silence_s", &O::end_after_silence_s, AtLeast(0.0), AtMost(86400.0),
+              "> 0: end the stream once a robot that was heard is silent this long (evaluation runs)");
     s->Number("control_retry_ms", &O::control_retry_ms, Above(0.0), AtMost(60000.0),
               "resend an unacknowledged control this often");
     s->Number("control_retries", &O::control_retries, AtLeast(0), AtMost(10000), "then give up");
     s->Number("sync_interval_ms", &O::sync_interval_ms, Above(0.0), AtMost(60000.0), "clock round trip period");
     s->Number("queue_frames", &O::queue_frames, AtLeast(1), AtMost(1000), "complete frames waiting for the front");
     s->Text("frames_log", &O::frames_log, "CSV of every frame (latency, fragments); '' none");
+    s->Number("max_halt_s", &O::max_halt_s, Above(0.0), AtMost(3600.0),
+              "hierarchical mode: resume the robot after this long even if the merge has not come");
     s->Rule([](const O& o) -> std::string {
       std::string h, why;
       int p;

@@ -16,11 +16,14 @@ struct LinkOptions {
   double nack_interval_ms = 100;      // then again every this long
   double heartbeat_ms = 500;          // ground heartbeat period (carries halt/resume)
   double silence_s = 3.0;             // nothing from the robot this long: status "waiting"
+  double end_after_silence_s = 0;     // > 0: the stream ends (the session finishes) once a robot
+                                      // that was heard is silent this long (evaluation runs)
   double control_retry_ms = 200;      // resend an unacknowledged control this often
   int control_retries = 25;           // then give up (logged); the heartbeat still carries halt
   double sync_interval_ms = 250;      // a clock round trip this often (10 at 100 ms first)
   int queue_frames = 8;               // complete frames waiting for the front; oldest dropped
   std::string frames_log;             // CSV of every frame (latency, fragments); "" none
+  double max_halt_s = 15;             // hierarchical mode: resume even if the merge has not come
   static const OptionSpec<LinkOptions>& Spec();
   bool Check(std::string* why = nullptr) const { return Spec().Check(*this, why); }
 };

@@ -14,5 +14,7 @@ void RegisterConfigCommand(CLI::App* app);  // config_command.cc
 void RegisterGridCommand(CLI::App* app);    // grid_command.cc
 void AddEvalGridCommand(CLI::App* eval);    // grid_command.cc: under `eval`
 void RegisterQueryCommand(CLI::App* app);   // query_command.cc: the map over DDS
+void RegisterCalibrateCommand(CLI::App* app);  // calibrate_command.cc: camera from chessboard photos
+void RegisterRobotSimCommand(CLI::App* app);   // robot_sim_command.cc: a simulated robot on the link
 
 }  // namespace rumi::cli

@@ -19,6 +19,8 @@ int main(int argc, char** argv) {
   rumi::cli::RegisterConfigCommand(&app);
   rumi::cli::RegisterGridCommand(&app);
   rumi::cli::RegisterQueryCommand(&app);
+  rumi::cli::RegisterCalibrateCommand(&app);
+  rumi::cli::RegisterRobotSimCommand(&app);
   app.parse_complete_callback([&] { rumi::SetupLogging("rumi", log_level); });
   CLI11_PARSE(app, argc, argv);
   return 0;

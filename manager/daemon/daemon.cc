@@ -130,8 +130,8 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
   for (const std::string& name : InstanceSegmentNames(o.instance)) {
     RingStats rs;
     if (!ReadRingStats(name, &rs)) continue;
-    // Unread poses are stale: the pose ring never waits for its reader.
-    const bool drained = rs.tail >= rs.head || name == SegmentName(o.instance, kPoseChannel);
+    // Unread poses and notices are stale: those rings never wait for their reader.
+    const bool drained = rs.tail >= rs.head || NewestWinsSegment(o.instance, name);
     if (!rs.producer_alive && !rs.consumer_alive && drained && RemoveSegment(name))
       spdlog::info("rumid: removed {}, drained, left by an earlier run", name);
   }
@@ -333,7 +333,7 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
   for (const std::string& name : InstanceSegmentNames(o.instance)) {
     RingStats rs;
     if (!ReadRingStats(name, &rs)) continue;
-    if (rs.tail >= rs.head || name == SegmentName(o.instance, kPoseChannel)) RemoveSegment(name);
+    if (rs.tail >= rs.head || NewestWinsSegment(o.instance, name)) RemoveSegment(name);
     else spdlog::warn("rumid: {} keeps {} unread message(s) for the next start", name, rs.head - rs.tail);
   }
   if (failure.empty()) state = "stopped";

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <vector>
 
+#include "common/timestamp.h"
 #include "manager/dds/request_handler.h"
 #include "ros2_msgs.h"  // idlc, from ros2_msgs.idl
 #include "rumi_map.h"
@@ -40,11 +41,6 @@ void Sim3To(const Sim3& S, double* v) {
 // The grid topics carry the whole grid in one sample: only up to this size
 // (a 100 x 100 m floor at 5 cm); a larger one is fetched in chunks.
 constexpr size_t kMaxStreamedGridBytes = 4u << 20;
-
-int64_t WallNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
 
 rumi_dds_Status ToDds(const SnapshotStatus& s) {
   rumi_dds_Status d{};
@@ -142,7 +138,7 @@ bool MapServer::Open(std::string* why) {
   SnapshotStatus st;
   st.instance = instance_;
   st.state = "starting";
-  st.stamp_ns = WallNs();
+  st.stamp_ns = WallNowNs();
   const rumi_dds_Status d = ToDds(st);
   dds_write(status_w_, &d);
   spdlog::info("dds: serving instance {} on domain {} (interface '{}', topics {}/*{})", instance_, options_.domain_id,

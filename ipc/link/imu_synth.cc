@@ -1,0 +1,49 @@
+#include "ipc/link/imu_synth.h"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace rumi {
+
+ImuSynth::ImuSynth(std::vector<std::pair<Timestamp, Se3>> poses, const ImuSynthOptions& o)
+    : poses_(std::move(poses)), o_(o), rng_(o.seed) {
+  if (poses_.size() < 2) throw std::runtime_error("imu synthesis needs at least 2 ground-truth poses");
+  bg_ = Eigen::Vector3d::Constant(o_.gyro_bias);
+  ba_ = Eigen::Vector3d::Constant(o_.accel_bias);
+}
+
+bool ImuSynth::covers(Timestamp t) const { return t >= poses_.front().first && t <= poses_.back().first; }
+
+Se3 ImuSynth::PoseAt(Timestamp t) const {
+  t = std::clamp(t, poses_.front().first, poses_.back().first);
+  auto it = std::lower_bound(poses_.begin(), poses_.end(), t,
+                             [](const std::pair<Timestamp, Se3>& p, Timestamp x) { return p.first < x; });
+  if (it == poses_.begin()) return it->second;
+  if (it == poses_.end()) return poses_.back().second;
+  const auto& b = *it;
+  const auto& a = *(it - 1);
+  const double s = b.first > a.first ? static_cast<double>(t - a.first) / static_cast<double>(b.first - a.first) : 0;
+  const Eigen::Quaterniond q = a.second.rotation().slerp(s, b.second.rotation());
+  return Se3(q, (1 - s) * a.second.translation() + s * b.second.translation());
+}
+
+void ImuSynth::Sample(Timestamp t, float accel[3], float gyro[3]) {
+  const Timestamp h = 10'000'000;  // 10 ms differences: smoother than 30 Hz poses need
+  const Se3 p0 = PoseAt(t - h), p1 = PoseAt(t), p2 = PoseAt(t + h);
+  const double dt = 2e-2;
+  // Body rate: R1^T R2 over 2h, as an angle-axis.
+  const Eigen::AngleAxisd d(p0.rotation().conjugate() * p2.rotation());
+  Eigen::Vector3d w = d.axis() * d.angle() / dt;
+  const Eigen::Vector3d a_world =
+      (p2.translation() - 2 * p1.translation() + p0.translation()) / (1e-2 * 1e-2);
+  Eigen::Vector3d f = p1.rotation().conjugate() * (a_world - o_.gravity_world);
+  std::normal_distribution<double> ng(0, o_.gyro_noise), na(0, o_.accel_noise);
+  for (int i = 0; i < 3; ++i) {
+    gyro[i] = static_cast<float>(w[i] + bg_[i] + ng(rng_));
+    accel[i] = static_cast<float>(f[i] + ba_[i] + na(rng_));
+  }
+}
+
+}  // namespace rumi

@@ -1,0 +1,212 @@
+// The robot link end to end: `rumi robot-sim` streams a generated sequence
+// over UDP loopback with the real protocol, 10 % datagram loss both ways and
+// 50 +- 30 ms jitter, to rumid with a link source; the session ends when the
+// robot goes silent (source.link.end_after_silence_s). Then: frames were
+// delivered (NACK recovery) and every one accounted for, the clock sync
+// found the robot's clock, and the merged map covers the sequence. In the
+// hierarchical mode every coarse period halts the robot until its submap is
+// merged, then resumes it.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <string>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "common/process/subprocess.h"
+#include "tests/rumi_cli_util.h"
+
+namespace rumi {
+namespace {
+
+namespace fs = std::filesystem;
+using test::Slurp;
+
+class RobotLink : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("rumi_robot_link_test_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    port_ = 20000 + ::getpid() % 20000;
+  }
+  void TearDown() override {
+    for (pid_t p : {rumid_, sim_})
+      if (p > 0) {
+        ::kill(p, SIGKILL);
+        ::waitpid(p, nullptr, 0);
+      }
+    fs::remove_all(dir_);
+  }
+  fs::path Synth(const std::string& scenario, int frames, int seed, const std::string& extra = "") {
+    const fs::path seq = dir_ / scenario;
+    EXPECT_EQ(test::RunRumiLogged("synth " + seq.string() + " --scenario " + scenario + " --frames " +
+                                      std::to_string(frames) + " --size 320x240 --seed " + std::to_string(seed) + " " + extra,
+                                  dir_ / "synth.log"),
+              0)
+        << Slurp(dir_ / "synth.log");
+    return seq;
+  }
+  pid_t Spawn(std::vector<std::string> argv, const fs::path& log) {
+    SpawnOptions so;
+    so.argv = std::move(argv);
+    so.log_path = log.string();
+    so.truncate_log = true;
+    std::string why;
+    const pid_t pid = SpawnChild(so, &why);
+    EXPECT_GT(pid, 0) << why;
+    return pid;
+  }
+  // rumid on a link source until the robot is silent for 2 s; the front's
+  // final link statistics.
+  nlohmann::json RunSession(const fs::path& seq, const std::string& front_extra,
+                            const std::vector<std::string>& sim_args) {
+    const fs::path cfg = dir_ / "rumid.yaml";
+    std::ofstream(cfg) << Slurp(seq / "camera.yaml") << "log_level: info\n"
+                       << "source:\n  kind: link\n  link: {bind: \"127.0.0.1:" << port_
+                       << "\", end_after_silence_s: 2, frames_log: " << (dir_ / "link_frames.csv").string()
+                       << "}\n"
+                       << "daemon:\n  child_output: files\n  state_dir: " << state().string()
+                       << "\n  status_interval_s: 0.2\n"
+                       << front_extra;
+    rumid_ = Spawn({test::BinPath("rumid"), "--config", cfg.string(), "--instance",
+                    "rlink" + std::to_string(::getpid() % 100000)},
+                   dir_ / "rumid.log");
+    // The robot may start before the ground station listens: it streams
+    // into the void until then, as a robot would.
+    std::vector<std::string> argv = {test::BinPath("rumi"),
+                                     "robot-sim",
+                                     seq.string(),
+                                     "--ground",
+                                     "127.0.0.1:" + std::to_string(port_),
+                                     "--stats-out",
+                                     (dir_ / "sim.json").string(),
+                                     "--groundtruth-out",
+                                     (dir_ / "gt.txt").string()};
+    argv.insert(argv.end(), sim_args.begin(), sim_args.end());
+    std::this_thread::sleep_for(std::chrono::seconds(2));
+    sim_ = Spawn(argv, dir_ / "sim.log");
+    nlohmann::json last;
+    const auto t0 = std::chrono::steady_clock::now();
+    int sim_rc = -1, rumid_rc = -1;
+    int st = 0;
+    while (test::SecondsSince(t0) < 900) {
+      nlohmann::json s = test::ReadStatus(state());
+      if (s.contains("front") && s["front"].contains("link")) last = s;
+      if (sim_ > 0 && ::waitpid(sim_, &st, WNOHANG) == sim_) {
+        sim_rc = WIFEXITED(st) ? WEXITSTATUS(st) : -2;
+        sim_ = -1;
+      }
+      if (::waitpid(rumid_, &st, WNOHANG) == rumid_) {
+        rumid_rc = WIFEXITED(st) ? WEXITSTATUS(st) : -2;
+        rumid_ = -1;
+        break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    if (sim_ > 0) sim_rc = test::WaitExit(sim_, 30, true), sim_ = -1;
+    EXPECT_EQ(sim_rc, 0) << Slurp(dir_ / "sim.log");
+    EXPECT_EQ(rumid_rc, 0) << Slurp(dir_ / "rumid.log");
+    // The front's final link statistics (the status above is the last one
+    // seen while it ran: it proves they reach `rumi status`).
+    EXPECT_TRUE(last.contains("front")) << "no link statistics in status.json";
+    try {
+      return nlohmann::json::parse(Slurp(state() / "front" / "front_stats.json")).value("link", nlohmann::json());
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << "front_stats.json: " << e.what();
+      return nlohmann::json();
+    }
+  }
+  fs::path state() const { return dir_ / "state"; }
+  nlohmann::json SimStats() const { return nlohmann::json::parse(Slurp(dir_ / "sim.json")); }
+
+  fs::path dir_;
+  int port_ = 0;
+  pid_t rumid_ = -1, sim_ = -1;
+};
+
+TEST_F(RobotLink, LossAndJitterEndToEnd) {
+  // A walk with frames missing in the middle (a loss for the front, a window
+  // for the back), 5 s at 30 fps.
+  const fs::path seq = Synth("drop", 150, 2);
+  const nlohmann::json link = RunSession(seq, "", {"--loss", "0.1", "--latency-ms", "50", "--jitter-ms", "30",
+                                                   "--clock-offset-ms", "-2500.25", "--drift-ppm", "20"});
+  ASSERT_TRUE(link.is_object()) << Slurp(dir_ / "rumid.log");
+  const nlohmann::json sim = SimStats();
+  const int sent = sim["frames_sent"];
+  const int complete = link["frames_complete"], dropped = link["frames_dropped"];
+  // Without retransmission ~0.9^11 = 31 % of these 11-fragment frames would
+  // arrive; with NACKs nearly all do (the issue's target is 95 %).
+  EXPECT_GE(complete, 0.9 * sent) << link.dump(1);
+  EXPECT_GT(link["fragments_recovered"].get<int>(), 0);
+  EXPECT_GT(sim["datagrams_lost_up"].get<int>(), 0);
+  // Every frame is delivered or counted as dropped (the very last may be in flight).
+  EXPECT_GE(complete + dropped, sent - 1) << link.dump(1);
+  EXPECT_EQ(link["bad_datagrams"].get<int>(), 0);
+  // The robot's clock, found through 50 +- 30 ms legs (the issue's target:
+  // 2 ms; loopback under a loaded CI adds its own asymmetry).
+  ASSERT_TRUE(link["clock"]["synced"].get<bool>());
+  EXPECT_NEAR(link["clock"]["offset_ms"].get<double>(), sim["clock_offset_ms"].get<double>(), 5.0);
+  EXPECT_GT(link["latency_ms"]["p50"].get<double>(), 20.0);  // at least the link's minimum leg
+  // The per-frame log for the latency plot: one line per frame handed on or dropped.
+  std::ifstream csv(dir_ / "link_frames.csv");
+  int lines = -1;
+  for (std::string l; std::getline(csv, l);) ++lines;
+  EXPECT_GE(lines, complete);
+  // The map: the session covers the sequence (read from disk it is 100 %).
+  const fs::path merged = state() / "merged.txt";
+  ASSERT_TRUE(fs::exists(merged)) << Slurp(dir_ / "rumid.log");
+  ASSERT_EQ(test::RunRumiLogged("eval ate " + merged.string() + " " + (dir_ / "gt.txt").string() + " --frames " +
+                                    (dir_ / "gt.txt").string() + " --json",
+                                dir_ / "ate.json"),
+            0)
+      << Slurp(dir_ / "ate.json");
+  const nlohmann::json ate = nlohmann::json::parse(Slurp(dir_ / "ate.json"));
+  EXPECT_GE(ate["tracking"]["covered_rate"].get<double>(), 0.8) << ate.dump(1);
+}
+
+TEST_F(RobotLink, HierarchicalModeHaltsTheRobotUntilTheMerge) {
+  // A stretch nearly black (2 % exposure): no features, the front goes coarse
+  // (finishes its submap) and halts the robot until the manager's map holds
+  // that submap. The robot stays 10 s after its last frame, so a halt the
+  // front asks for at the end is answered too; COLMAP steps are cut at 20 s
+  // (the back is not what this test checks).
+  const fs::path seq = Synth("dark", 240, 3, "--dark-gain 0.02");
+  const nlohmann::json link =
+      RunSession(seq, "front:\n  hierarchical: true\nback:\n  step_timeout_s: 20\n",
+                 {"--loss", "0.05", "--latency-ms", "20", "--jitter-ms", "10", "--linger-s", "10"});
+  ASSERT_TRUE(link.is_object() && link.contains("halts")) << link.dump(1);
+  const nlohmann::json halts = link["halts"];
+  const nlohmann::json sim = SimStats();
+  const std::string front_log = Slurp(state() / "logs" / "rumi-front.log");
+  ASSERT_GE(halts["halts"].get<int>(), 1) << front_log;
+  // Every halt ended because the merge came, none by the time limit.
+  EXPECT_EQ(halts["resumed_on_merge"].get<int>(), halts["halts"].get<int>()) << front_log;
+  EXPECT_EQ(halts["resumed_on_timeout"].get<int>(), 0);
+  // The robot stood still once per halt, and its camera kept streaming.
+  EXPECT_EQ(sim["halts"].get<int>(), halts["halts"].get<int>()) << Slurp(dir_ / "sim.log");
+  EXPECT_GT(sim["frames_sent_halted"].get<int>(), 0);
+  EXPECT_EQ(sim["failsafe_stops"].get<int>(), 0);
+  // Halt/resume went through the control protocol, acknowledged.
+  EXPECT_GE(link["controls_acked"].get<int>(), 2 * halts["halts"].get<int>() - 1);
+}
+
+TEST_F(RobotLink, RobotSimRefusesBadInput) {
+  EXPECT_EQ(test::RunRumiLogged("robot-sim " + (dir_ / "nothing").string(), dir_ / "bad.log"), 2) << Slurp(dir_ / "bad.log");
+  EXPECT_NE(Slurp(dir_ / "bad.log").find("nothing"), std::string::npos);
+  const fs::path seq = Synth("smooth", 5, 1);
+  EXPECT_EQ(test::RunRumiLogged("robot-sim " + seq.string() + " --ground nowhere", dir_ / "bad2.log"), 2)
+      << Slurp(dir_ / "bad2.log");
+  EXPECT_NE(Slurp(dir_ / "bad2.log").find("nowhere"), std::string::npos) << Slurp(dir_ / "bad2.log");
+}
+
+}  // namespace
+}  // namespace rumi
