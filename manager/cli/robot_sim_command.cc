@@ -25,7 +25,9 @@
 #include "common/process/signals.h"
 #include "common/timestamp.h"
 #include "common/trajectory.h"
+#include "common/trajectory_plot.h"
 #include "ipc/link/imu_synth.h"
+#include "ipc/link/latency_plot.h"
 #include "ipc/link/link_endpoint.h"
 #include "ipc/link/robot_sim.h"
 #include "manager/cli/commands.h"
@@ -263,6 +265,25 @@ void RegisterRobotSimCommand(CLI::App* app) {
   cmd->add_option("--frames-out", a->frames_out, "CSV: frame id, dataset time, ground capture time, walking");
   cmd->add_option("--stats-out", a->stats_out, "JSON of the robot's side");
   cmd->callback([a] { Run(*a); });
+
+  // The link's latency per frame (source.link.frames_log) as a PNG.
+  auto csv = std::make_shared<std::string>();
+  auto png = std::make_shared<std::string>();
+  CLI::App* plot = app->add_subcommand("link-plot", "the robot link's latency per frame (its frames log) as a PNG");
+  plot->add_option("frames_log", *csv, "the CSV of source.link.frames_log")->required();
+  plot->add_option("--out", *png, "PNG to write (default: beside the CSV, .png)");
+  plot->callback([csv, png] {
+    std::vector<LinkFrameLogLine> frames;
+    std::string why;
+    if (!ReadLinkFramesLog(*csv, &frames, &why)) Fail(why, 2);
+    const std::string out = png->empty() ? std::filesystem::path(*csv).replace_extension(".png").string() : *png;
+    try {
+      WritePng(out, RenderLatencyPlot(frames, std::filesystem::path(*csv).filename().string()));
+    } catch (const std::exception& e) {
+      Fail(e.what());
+    }
+    std::cout << "link-plot: " << frames.size() << " frames -> " << out << "\n";
+  });
 }
 
 }  // namespace rumi::cli
