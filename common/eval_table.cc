@@ -83,6 +83,18 @@ const std::vector<std::pair<std::string, Getter>>& Methods() {
   return m;
 }
 
+// "accepted / rejected / harmful" over the runs; "-" when a run has no audit.
+std::string MergeCell(const TableRow& row) {
+  int acc = 0, rej = 0, harm = 0;
+  for (const auto& r : row.runs) {
+    if (!r.merges_rejected || !r.merges_harmful) return "-";
+    acc += int(r.merges);
+    rej += *r.merges_rejected;
+    harm += *r.merges_harmful;
+  }
+  return std::to_string(acc) + " / " + std::to_string(rej) + " / " + std::to_string(harm);
+}
+
 }  // namespace
 
 bool EvalTableOptions::Check(std::string* why) const {
@@ -114,6 +126,9 @@ RunMetrics ParseRunMetrics(const std::string& json_text, const std::string& sour
                                                           : m.merged_rate;
   m.po_rmse = j.contains("postculled_ate_rmse") ? NumberOrNull(j, "postculled_ate_rmse", source)
                                                 : m.merged_rmse;
+  m.merges = j.contains("merges") ? Number(j, "merges", source) : 0;
+  if (j.contains("merges_rejected")) m.merges_rejected = int(Number(j, "merges_rejected", source));
+  if (j.contains("merges_harmful")) m.merges_harmful = int(Number(j, "merges_harmful", source));
   if (j.contains("warnings") && j["warnings"].is_array())
     for (const auto& w : j["warnings"])
       if (w.is_string()) m.warnings.push_back(w.get<std::string>());
@@ -127,13 +142,15 @@ std::string FormatEvalTableMarkdown(const std::vector<TableRow>& rows, const Eva
     out += " " + m.first + " Rate (%) | " + m.first + " RMSE | " + m.first + " Frames |";
     sep += "---:|---:|---:|";
   }
+  out += " Merges acc / rej / harmful |";
+  sep += "---:|";
   out += "\n" + sep + "\n";
   for (const auto& row : rows) {
     out += "| " + row.sequence + " |";
     for (const auto& m : Methods()) {
       for (const auto& c : Cells(row, m.second, o)) out += " " + c + " |";
     }
-    out += "\n";
+    out += " " + MergeCell(row) + " |\n";
   }
   for (const auto& row : rows) {
     for (size_t k = 0; k < row.runs.size(); ++k)
@@ -149,13 +166,13 @@ std::string FormatEvalTableCsv(const std::vector<TableRow>& rows, const EvalTabl
   for (const char* m : {"po", "rumi", "front"}) {
     out += std::string(",") + m + "_rate," + m + "_rmse," + m + "_frames";
   }
-  out += "\n";
+  out += ",merges\n";
   for (const auto& row : rows) {
     out += row.sequence + "," + std::to_string(row.runs.size());
     for (const auto& m : Methods()) {
       for (const auto& c : Cells(row, m.second, o)) out += ",\"" + c + "\"";
     }
-    out += "\n";
+    out += ",\"" + MergeCell(row) + "\"\n";
   }
   return out;
 }

@@ -16,6 +16,10 @@ struct RunMetrics {
   std::optional<double> front_rmse, merged_rmse, po_rmse;
   double front_frames = 0, merged_frames = 0, po_frames = 0;  // saved frames
   std::vector<std::string> warnings;  // metrics.json "warnings" (absent in old files)
+  // The merge audit: merges accepted, attempts rejected after a Sim(3), and
+  // accepted merges that made the map worse (absent without an audit).
+  double merges = 0;
+  std::optional<int> merges_rejected, merges_harmful;
 };
 
 // Parses metrics.json text; throws std::runtime_error naming `source` and the
@@ -33,7 +37,9 @@ struct EvalTableOptions {
   bool Check(std::string* why = nullptr) const;
 };
 
-// The table, then one line per run that has warnings.
+// The table (the last column: merges accepted / rejected / harmful, summed
+// over the runs, "-" without an audit), then one line per run that has
+// warnings.
 std::string FormatEvalTableMarkdown(const std::vector<TableRow>& rows,
                                     const EvalTableOptions& options = {});
 std::string FormatEvalTableCsv(const std::vector<TableRow>& rows,

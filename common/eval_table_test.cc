@@ -56,5 +56,23 @@ TEST(EvalTable, MissingRmseInAnyRunHidesIt) {
   EXPECT_NE(md.find("| s | 99.0 | - | 1 | 99.0 | - | 1 | 95.0 | - | 40 |"), std::string::npos) << md;
 }
 
+TEST(EvalTable, MergeAuditColumnSumsRunsAndShowsDashWithoutAudit) {
+  auto with_audit = [](int merges, int rejected, int harmful) {
+    std::string m = Metrics(0.5, "0.01", 1.0, "0.01", 10, 5);
+    m.pop_back();
+    return m + ",\"merges\":" + std::to_string(merges) + ",\"merges_rejected\":" + std::to_string(rejected) +
+           ",\"merges_harmful\":" + std::to_string(harmful) + "}";
+  };
+  const RunMetrics a = ParseRunMetrics(with_audit(2, 1, 0), "a");
+  ASSERT_TRUE(a.merges_harmful.has_value());
+  EXPECT_EQ(*a.merges_rejected, 1);
+  TableRow row{"blur", {a, ParseRunMetrics(with_audit(3, 0, 1), "b")}};
+  EXPECT_NE(FormatEvalTableMarkdown({row}).find("| 5 / 1 / 1 |\n"), std::string::npos) << FormatEvalTableMarkdown({row});
+  EXPECT_NE(FormatEvalTableCsv({row}).find(",\"5 / 1 / 1\"\n"), std::string::npos);
+  // One run without an audit (an older metrics.json): no sum that hides it.
+  row.runs.push_back(ParseRunMetrics(Metrics(0.5, "0.01", 1.0, "0.01", 10, 5), "c"));
+  EXPECT_NE(FormatEvalTableMarkdown({row}).find("| - |\n"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace rumi

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -121,6 +122,26 @@ TrajectoryMetrics ComputeTrajectoryMetrics(const std::vector<Timestamp>& frames,
   return m;
 }
 
+namespace {
+// ATE of `est` over the poses whose timestamps `frames` also holds (within
+// 1 ms); null when that is not computable.
+std::optional<double> AteOnFrames(const Trajectory& est, const Trajectory& frames, const Trajectory& gt,
+                                  const AteOptions& ate) {
+  if (gt.empty() || est.empty() || frames.empty()) return std::nullopt;
+  Trajectory kept;
+  size_t k = 0;
+  for (const StampedPose& p : est) {
+    while (k < frames.size() && frames[k].t < p.t - 1000000) ++k;
+    if (k < frames.size() && std::llabs(frames[k].t - p.t) <= 1000000) kept.push_back(p);
+  }
+  try {
+    return ComputeAte(kept, gt, ate).translation.rmse;
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+}  // namespace
+
 RunMetricsReport ComputeRunMetrics(const RunMetricsInput& in) {
   if (in.frames.size() < 2) {
     throw std::runtime_error("run metrics need the timestamps of at least 2 sequence frames (got " +
@@ -132,6 +153,15 @@ RunMetricsReport ComputeRunMetrics(const RunMetricsInput& in) {
   r.duration_s = NsToSeconds(in.frames.back() - in.frames.front());
   r.front = ComputeTrajectoryMetrics(in.frames, in.front, in.ground_truth, in.ate, in.rate);
   r.merged = ComputeTrajectoryMetrics(in.frames, in.merged, in.ground_truth, in.ate, in.rate);
+  r.merged_ate_front_frames = AteOnFrames(in.merged, in.front, in.ground_truth, in.ate);
+  if (!in.components.empty()) {
+    std::vector<Timestamp> posed;
+    for (const Trajectory& c : in.components)
+      for (const StampedPose& p : c) posed.push_back(p.t);
+    std::sort(posed.begin(), posed.end());
+    posed.erase(std::unique(posed.begin(), posed.end()), posed.end());
+    r.components_rate_frames = ComputeTrackingRate(in.frames, posed, in.rate).frame_rate;
+  }
   if (!in.front_ms.empty()) {
     double sum = 0;
     for (double x : in.front_ms) sum += x;
@@ -178,6 +208,36 @@ std::string FormatRunMetricsJson(const RunMetricsReport& r) {
   if (!r.front.ate_note.empty()) notes["front_ate"] = r.front.ate_note;
   if (!r.merged.ate_note.empty()) notes["merged_ate"] = r.merged.ate_note;
   if (!notes.empty()) j["notes"] = notes;
+  j["merged_ate_front_frames"] = OrNull(r.merged_ate_front_frames);
+  if (r.components_rate_frames) j["components_tracking_rate_frames"] = *r.components_rate_frames;
+  if (r.merge_audit_done) {
+    nlohmann::json audit = nlohmann::json::array();
+    int rejected = 0, harmful = 0, rejected_harmful = 0;
+    for (const MergeAuditRow& m : r.merge_audit) {
+      rejected += !m.accepted;
+      harmful += m.accepted && m.harmful;
+      rejected_harmful += !m.accepted && m.harmful;
+      nlohmann::json row = {{"kind", m.kind},
+                            {"a", m.a},
+                            {"b", m.b},
+                            {"accepted", m.accepted},
+                            {"a_frames", m.a_frames},
+                            {"b_frames", m.b_frames},
+                            {"ate_a", OrNull(m.ate_a)},
+                            {"ate_b", OrNull(m.ate_b)},
+                            {"ate_joint", OrNull(m.ate_joint)},
+                            {"ate_a_joint", OrNull(m.ate_a_joint)},
+                            {"harmful", m.harmful}};
+      if (!m.accepted) row["reason"] = m.reason;
+      if (!m.rejected_by.empty()) row["rejected_by"] = m.rejected_by;
+      if (!m.note.empty()) row["note"] = m.note;
+      audit.push_back(row);
+    }
+    j["merge_audit"] = audit;
+    j["merges_rejected"] = rejected;
+    j["merges_harmful"] = harmful;
+    j["merges_rejected_harmful"] = rejected_harmful;
+  }
   j["warnings"] = r.warnings;
   return j.dump(2) + "\n";
 }

@@ -34,6 +34,7 @@ struct RunMetricsInput {
   Trajectory ground_truth;        // empty: no ground truth
   Trajectory front;               // front's largest submap
   Trajectory merged;              // manager's largest merged map
+  std::vector<Trajectory> components;  // every component (merged_<k>.txt); may be empty
   std::vector<double> front_ms;   // per-frame front time; may be empty
   RunCounts counts;
   AteOptions ate;                 // Sim(3), max_diff 0.02 s by default
@@ -49,6 +50,25 @@ struct TrajectoryMetrics {
   std::string ate_note;            // why the RMSE is null, or an unusual alignment
 };
 
+// One merge attempt of the manager that reached a Sim(3), judged against the
+// ground truth (manager/merge_audit.h computes it): side `a` (the front
+// submap; the first one of a place or odometry merge) and side `b` (the back
+// submap; the second one), each Sim(3)-aligned to the ground truth on its own,
+// then both together under the merge's Sim(3).
+struct MergeAuditRow {
+  std::string kind;  // merge, place, odometry
+  std::string a, b;  // "front#3", "back#1"
+  bool accepted = false;
+  std::string reason;       // why it was rejected (empty when accepted)
+  std::string rejected_by;  // the verification check, when one rejected it
+  size_t a_frames = 0, b_frames = 0;  // frames with ground truth
+  std::optional<double> ate_a, ate_b;  // each side on its own (before)
+  std::optional<double> ate_joint;     // both sides, one alignment (after)
+  std::optional<double> ate_a_joint;   // side a's frames under that alignment
+  bool harmful = false;  // accepting it makes the map worse (merge_audit.h)
+  std::string note;      // why the figures are missing, if they are
+};
+
 struct RunMetricsReport {
   std::string sequence;
   size_t frames = 0;
@@ -56,6 +76,18 @@ struct RunMetricsReport {
   TrajectoryMetrics front, merged;
   std::optional<double> front_ms_mean, front_ms_median, front_ms_p95;
   RunCounts counts;
+  // The merged trajectory's ATE over the frames of front.txt only (the
+  // frames the front tracked): a merge must not make these worse.
+  std::optional<double> merged_ate_front_frames;
+  // Share of the sequence's frames that some component of the map poses
+  // (any merged_<k>.txt, matched like merged_tracking_rate_frames): a
+  // rejected merge leaves its submap as a component of its own.
+  std::optional<double> components_rate_frames;
+  // Every merge attempt that reached a Sim(3) (with ground truth and the
+  // raw map; empty otherwise), and the counts of merges rejected (all
+  // attempts that got a Sim(3)) and of harmful accepted merges.
+  std::vector<MergeAuditRow> merge_audit;
+  bool merge_audit_done = false;
   // What makes the figures suspect (nothing tracked, failed back windows):
   // metrics.json "warnings", printed by `rumi eval run` and `rumi eval table`.
   std::vector<std::string> warnings;

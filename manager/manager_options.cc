@@ -20,6 +20,18 @@ const OptionSpec<ManagerOptions>& ManagerOptions::Spec() {
     s->Number("min_common_points", &O::min_common_points, AtLeast(3), AtMost(1000000), "common points of a merge");
     s->Number("min_inlier_ratio", &O::min_inlier_ratio, AtLeast(0.0), Below(1.0),
               "a merge needs an inlier ratio strictly above this");
+    s->Flag("verify_merges", &O::verify_merges, "verify a refined merge before committing it");
+    s->Number("verify_min_inliers", &O::verify_min_inliers, AtLeast(0), AtMost(1000000), "verification: inliers");
+    s->Number("verify_max_rmse_px", &O::verify_max_rmse_px, Above(0.0), AtMost(1000.0),
+              "verification: refined reprojection RMSE, px");
+    s->Number("verify_max_pose_angle_deg", &O::verify_max_pose_angle_deg, Above(0.0), AtMost(180.0),
+              "verification: rotation between paired poses, deg");
+    s->Number("verify_max_pose_offset", &O::verify_max_pose_offset, Above(0.0), AtMost(100.0),
+              "verification: paired centres apart / back scene radius");
+    s->Number("verify_min_agreeing_pairs", &O::verify_min_agreeing_pairs, AtLeast(0), AtMost(100000),
+              "verification: paired poses that must agree");
+    s->Number("verify_min_agreeing_ratio", &O::verify_min_agreeing_ratio, AtLeast(0.0), AtMost(1.0),
+              "verification: share of paired poses that must agree");
     s->Number("ransac_iterations", &O::ransac_iterations, AtLeast(1), AtMost(1000000), "RANSAC Sim(3) samples");
     s->Number("ransac_threshold_ratio", &O::ransac_threshold_ratio, Above(0.0), AtMost(10.0),
               "inlier distance / median scene radius");
@@ -36,6 +48,8 @@ const OptionSpec<ManagerOptions>& ManagerOptions::Spec() {
     s->Number("welding_max_keyframes", &O::welding_max_keyframes, AtLeast(1), AtMost(100000), "welding window size");
     s->Number("ba_max_iterations", &O::ba_max_iterations, AtLeast(1), AtMost(10000), "welding BA iterations");
     s->Flag("welding_ba", &O::welding_ba, "run the welding-window BA after a merge");
+    s->Number("welding_max_shift", &O::welding_max_shift, Above(0.0), AtMost(100.0),
+              "welding BA not applied when it moves a keyframe further (x front scene radius)");
     s->Number("culling_redundant_ratio", &O::culling_redundant_ratio, Above(0.0), AtMost(1.0),
               "post-culling: share of a keyframe's points seen by enough others");
     s->Number("culling_min_observers", &O::culling_min_observers, AtLeast(1), AtMost(1000),

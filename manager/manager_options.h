@@ -30,6 +30,19 @@ struct ManagerOptions {
   int min_common_points = 20;
   // ... and an inlier ratio strictly above this.
   double min_inlier_ratio = 0.1;
+  // Verification after refinement (manager/merge_verify.h): a merge needs
+  // verify_min_inliers inliers, a refined reprojection RMSE of at most
+  // verify_max_rmse_px, and paired poses (the same image in both submaps)
+  // that agree under the Sim(3): within verify_max_pose_angle_deg and
+  // verify_max_pose_offset x the back scene radius, for at least
+  // verify_min_agreeing_pairs pairs and verify_min_agreeing_ratio of them.
+  bool verify_merges = true;
+  int verify_min_inliers = 20;
+  double verify_max_rmse_px = 3.0;
+  double verify_max_pose_angle_deg = 5.0;
+  double verify_max_pose_offset = 0.1;
+  int verify_min_agreeing_pairs = 1;
+  double verify_min_agreeing_ratio = 0.5;
   // RANSAC Sim(3) over 3D point correspondences.
   int ransac_iterations = 300;
   double ransac_threshold_ratio = 0.05;  // inlier distance / median scene radius
@@ -50,6 +63,9 @@ struct ManagerOptions {
   int welding_max_keyframes = 30;
   int ba_max_iterations = 10;
   bool welding_ba = true;
+  // A welding solve that moves a window keyframe's centre by more than this
+  // x the front scene radius is not applied (welding_ba.h).
+  double welding_max_shift = 0.05;
   // Post-culling (ORB-SLAM rule): a keyframe is redundant when at least
   // culling_redundant_ratio of its map points are seen by at least
   // culling_min_observers other keyframes at the same or a finer octave.

@@ -34,7 +34,8 @@ nlohmann::json Sim3Json(const Sim3& S) {
 }
 
 nlohmann::json ReportJson(const MergeReport& r) {
-  nlohmann::json j = {{"front", ToString(r.front)},
+  nlohmann::json j = {{"kind", r.kind},
+                      {"front", ToString(r.front)},
                       {"back", ToString(r.back)},
                       {"merged", r.merged},
                       {"reason", r.reason},
@@ -49,12 +50,21 @@ nlohmann::json ReportJson(const MergeReport& r) {
                       {"front_moved", r.front_moved},
                       {"fused_points", r.fused_points},
                       {"welding_keyframes", r.welding.window_keyframes},
+                      {"welding_max_shift", r.welding.max_shift_ratio},
+                      {"welding_applied", !r.welding.reverted},
                       {"welding_initial_rmse_px", r.welding.initial_rmse_px},
                       {"welding_final_rmse_px", r.welding.final_rmse_px},
                       {"seconds_align", r.seconds_align},
                       {"seconds_refine", r.seconds_refine},
-                      {"seconds_weld", r.seconds_weld}};
-  if (r.merged) j["S_bf"] = Sim3Json(r.S_bf);
+                      {"seconds_weld", r.seconds_weld},
+                      {"rejected_by", r.rejected_by},
+                      {"pose_pairs", r.pose_pairs},
+                      {"agreeing_pairs", r.agreeing_pairs},
+                      {"pose_angle_deg", r.pose_angle_deg},
+                      {"pose_offset_ratio", r.pose_offset_ratio}};
+  // Also for a merge rejected after refinement: the merge audit
+  // (merge_audit.h) measures what accepting it would have done.
+  if (r.merged || r.refined) j["S_bf"] = Sim3Json(r.S_bf);
   return j;
 }
 

@@ -106,8 +106,19 @@ MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& sear
   r.seconds_refine = SecondsSince(t0);
   if (!refine.ok) return Reject(r, "refinement failed: " + refine.message);
   r.S_bf = refine.S_bf;
+  r.refined = true;
   r.refine_initial_rmse_px = refine.initial_rmse_px;
   r.refine_final_rmse_px = refine.final_rmse_px;
+  const MergeVerification v =
+      VerifyMerge(F, B, pairs, frame_pairs, r.S_bf, r.inliers, r.refine_final_rmse_px, options);
+  r.pose_pairs = v.pose_pairs;
+  r.agreeing_pairs = v.agreeing_pairs;
+  r.pose_angle_deg = v.median_angle_deg;
+  r.pose_offset_ratio = v.median_offset_ratio;
+  if (options.verify_merges && !v.ok) {
+    r.rejected_by = v.check;
+    return Reject(r, "verification (" + v.check + "): " + v.why);
+  }
 
   std::vector<int64_t> seeds;
   for (const auto& p : pairs) seeds.push_back(F.keyframes[p.front_keyframe].id);
@@ -117,10 +128,12 @@ MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& sear
   r.merged = true;
   spdlog::info(
       "merged {} with {} ({} side moved): {} + {} frame pairs, {} common points, inlier ratio {:.2f} ({}), scale {:.4f}, refine rmse "
-      "{:.2f} -> {:.2f} px, {} fused, welding {} kf {:.2f} -> {:.2f} px",
+      "{:.2f} -> {:.2f} px, {} fused, welding {} kf {:.2f} -> {:.2f} px (shift median {:.4f}, max {:.4f}{}), {} of {} paired poses agree ({:.2f} deg, {:.3f})",
       ToString(r.front), ToString(r.back), r.front_moved ? "front" : "back", r.keyframe_pairs, r.frame_pairs, r.common_points, r.inlier_ratio, r.init_method,
       r.S_bf.scale(), r.refine_initial_rmse_px, r.refine_final_rmse_px, r.fused_points,
-      r.welding.window_keyframes, r.welding.initial_rmse_px, r.welding.final_rmse_px);
+      r.welding.window_keyframes, r.welding.initial_rmse_px, r.welding.final_rmse_px, r.welding.median_shift_ratio,
+      r.welding.max_shift_ratio, r.welding.reverted ? ": not applied" : "", r.agreeing_pairs, r.pose_pairs,
+      r.pose_angle_deg, r.pose_offset_ratio);
   return r;
 }
 

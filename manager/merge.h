@@ -10,6 +10,7 @@
 #include "manager/common_points.h"
 #include "manager/global_map.h"
 #include "manager/manager_options.h"
+#include "manager/merge_verify.h"
 #include "manager/pairing.h"
 #include "manager/welding_ba.h"
 
@@ -17,7 +18,11 @@ namespace rumi {
 
 struct MergeReport {
   bool merged = false;
+  std::string kind = "merge";  // "merge" (back <-> front), "place" or "odometry"
   std::string reason;  // why not (empty when merged)
+  // The verification check that rejected it ("inliers", "rmse", "pose_pairs";
+  // merge_verify.h), empty when none did.
+  std::string rejected_by;
   SubmapKey front, back;
   int keyframe_pairs = 0;
   int frame_pairs = 0;  // back keyframe <-> tracked front frame (not a keyframe)
@@ -27,6 +32,9 @@ struct MergeReport {
   std::string init_method;
   Sim3 S_bf_initial, S_bf;  // front frame -> back frame, before/after refinement
   double refine_initial_rmse_px = 0, refine_final_rmse_px = 0;
+  bool refined = false;  // S_bf holds a refined Sim(3) (also when rejected after it)
+  int pose_pairs = 0, agreeing_pairs = 0;  // verification: paired poses compared / agreeing
+  double pose_angle_deg = 0, pose_offset_ratio = 0;  // their medians
   bool front_moved = true;  // whose component moved (the smaller one)
   int fused_points = 0;
   WeldingReport welding;

@@ -17,6 +17,7 @@
 #include "manager/manager_service.h"
 #include "manager/map_file.h"
 #include "manager/merge.h"
+#include "manager/merge_audit.h"
 #include "manager/odometry_merge.h"
 #include "manager/place_merge.h"
 #include "manager/post_culling.h"
@@ -26,13 +27,14 @@ namespace {
 
 int Main(int argc, char** argv) {
   CLI::App app{"rumi-merge-replay: re-runs the manager's merge on a saved map"};
-  std::string map_path, config_path, traj_path;
+  std::string map_path, config_path, traj_path, gt_path;
   bool no_frame_pairs = false, no_culling = false;
   int min_back_obs = 0;
   double complete_px = 0;
   app.add_option("--map", map_path, "map file to load (e.g. map.rumi.raw)")->required();
   app.add_option("--config", config_path, "rumi YAML config (section manager:)");
   app.add_option("--trajectory", traj_path, "write the largest component's trajectory here (TUM)");
+  app.add_option("--groundtruth", gt_path, "ground truth (TUM): print the merge audit (merge_audit.h)");
   app.add_flag("--no-frame-pairs", no_frame_pairs, "manager.pair_tracked_frames = false");
   app.add_flag("--no-post-culling", no_culling, "skip redundant-keyframe culling");
   app.add_option("--complete-back-tracks", complete_px, "track completion radius (px) for back submaps (0 = off)");
@@ -79,11 +81,37 @@ int Main(int argc, char** argv) {
   for (const MergeReport& r : reports) {
     std::cout << fmt::format(
         "{} + {}: merged={} keyframe_pairs={} frame_pairs={} common_points={} inliers={} inlier_ratio={:.3f} "
-        "method={} scale={:.4f} refine_rmse={:.2f}->{:.2f}px fused={} align={:.4f}s refine={:.4f}s weld={:.4f}s{}\n",
+        "method={} scale={:.4f} refine_rmse={:.2f}->{:.2f}px poses_agree={}/{} pose_deg={:.2f} pose_offset={:.3f} "
+        "fused={} weld_shift={:.4f}/{:.4f}{} align={:.4f}s refine={:.4f}s weld={:.4f}s{}\n",
         ToString(r.front), ToString(r.back), r.merged, r.keyframe_pairs, r.frame_pairs, r.common_points, r.inliers,
         r.inlier_ratio, r.init_method.empty() ? "-" : r.init_method, r.S_bf.scale(), r.refine_initial_rmse_px,
-        r.refine_final_rmse_px, r.fused_points, r.seconds_align, r.seconds_refine, r.seconds_weld,
+        r.refine_final_rmse_px, r.agreeing_pairs, r.pose_pairs, r.pose_angle_deg, r.pose_offset_ratio,
+        r.fused_points, r.welding.median_shift_ratio, r.welding.max_shift_ratio,
+        r.welding.reverted ? "(not applied)" : "", r.seconds_align, r.seconds_refine,
+        r.seconds_weld,
         r.reason.empty() ? "" : " reason=\"" + r.reason + "\"");
+  }
+  if (!gt_path.empty()) {
+    GlobalMap raw;
+    if (!LoadGlobalMap(map_path, &raw, &why)) {
+      std::cerr << "rumi-merge-replay: cannot load " << map_path << ": " << why << "\n";
+      return 1;
+    }
+    Trajectory gt;
+    try {
+      gt = ReadTumTrajectory(gt_path);
+    } catch (const std::exception& e) {
+      std::cerr << "rumi-merge-replay: " << e.what() << "\n";
+      return 1;
+    }
+    auto opt = [](const std::optional<double>& v) { return v ? fmt::format("{:.4f}", *v) : std::string("-"); };
+    for (const MergeAuditRow& m : AuditMerges(raw, AttemptsOf(reports), gt)) {
+      std::cout << fmt::format("audit {} {} + {}: accepted={} frames={}+{} ate_a={} ate_b={} ate_joint={} "
+                               "ate_a_joint={} harmful={}{}\n",
+                               m.kind, m.a, m.b, m.accepted, m.a_frames, m.b_frames, opt(m.ate_a), opt(m.ate_b),
+                               opt(m.ate_joint), opt(m.ate_a_joint), m.harmful,
+                               m.note.empty() ? "" : " note=\"" + m.note + "\"");
+    }
   }
   if (!no_culling) {
     const CullingReport c = CullRedundantKeyframes(&map, config.manager);

@@ -114,6 +114,31 @@ TEST(Merge, WeldingMovesOnlyTheWindowAndKeepsBackFixed) {
   EXPECT_EQ(again.reason, "already connected");
 }
 
+// A welding solve that moves a keyframe further than welding_max_shift x the
+// scene radius is not applied: the merge stands on its Sim(3).
+TEST(Merge, WeldingThatMovesKeyframesTooFarIsNotApplied) {
+  const auto s = testing::MakeScenario();
+  for (const double max_shift : {0.05, 1e-12}) {
+    GlobalMap map;
+    const int a = map.AddSubmap(s.front_a.submap);
+    const int k = map.AddSubmap(s.back.submap);
+    const SearchSet set = BuildSearchSet({&map.submap(a)}, {&map.submap(k)}, 10);
+    ManagerOptions o;
+    o.welding_max_shift = max_shift;
+    const auto r = MergePair(&map, a, k, set, o);
+    ASSERT_TRUE(r.merged) << r.reason;
+    EXPECT_GT(r.welding.window_keyframes, 5);
+    EXPECT_GT(r.welding.max_shift_ratio, 0.0);
+    EXPECT_LT(r.welding.max_shift_ratio, 0.05);  // a right merge moves keyframes by little
+    EXPECT_EQ(r.welding.reverted, max_shift < 0.05);
+    bool moved = false;
+    for (size_t i = 0; i < s.front_a.submap.keyframes.size(); ++i)
+      moved |= !map.submap(a).keyframes[i].T_cw.Matrix().isApprox(s.front_a.submap.keyframes[i].T_cw.Matrix());
+    EXPECT_EQ(moved, !r.welding.reverted);
+    EXPECT_TRUE(map.Connected(a, k));
+  }
+}
+
 TEST(Merge, SmallerComponentMovesEvenWithSeveralSubmaps) {
   // A (7 keyframes) merges into the back (17): A moves. Then B (41) meets the
   // component {A, back} (24): that whole component moves into B's frame.

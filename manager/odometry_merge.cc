@@ -113,6 +113,7 @@ std::optional<OdometryFit> FitOdometry(const Submap& s, Timestamp t_begin, Times
 MergeReport OdometryMergePair(GlobalMap* map, int a, int b, const ManagerOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
   MergeReport r;
+  r.kind = "odometry";
   r.front = map->Key(a);
   r.back = map->Key(b);
   r.init_method = "odometry";

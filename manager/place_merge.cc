@@ -74,6 +74,7 @@ std::vector<PointMatch> MatchMapPoints(const Submap& a, const Submap& b, int max
 
 MergeReport PlaceMergePair(GlobalMap* map, int a, int b, const ManagerOptions& options) {
   MergeReport r;
+  r.kind = "place";
   r.front = map->Key(a);
   r.back = map->Key(b);
   r.init_method = "place-ransac";
@@ -113,6 +114,7 @@ MergeReport PlaceMergePair(GlobalMap* map, int a, int b, const ManagerOptions& o
   r.seconds_refine = SecondsSince(t0);
   if (!refine.ok) return Reject(r, "refinement failed: " + refine.message);
   r.S_bf = refine.S_bf;
+  r.refined = true;
   r.refine_initial_rmse_px = refine.initial_rmse_px;
   r.refine_final_rmse_px = refine.final_rmse_px;
   if (!(refine.final_rmse_px <= options.place_max_rmse_px))

@@ -6,7 +6,9 @@
 #include <cmath>
 #include <unordered_map>
 
+#include "common/run_metrics.h"
 #include "manager/ceres_util.h"
+#include "manager/sim3_alignment.h"
 #include "manager/submap_index.h"
 
 namespace rumi {
@@ -162,6 +164,28 @@ WeldingReport WeldWindow(GlobalMap* map, int front, int back, const std::unorder
   rep.iterations = int(summary.iterations.size());
   rep.final_rmse_px = rmse();
 
+  // How far the solve moved the window keyframes. A keyframe the window
+  // barely constrains can be flung away while the RMSE stays (a drifting
+  // front submap: one welded keyframe moved by a third of the scene radius
+  // made the run's ATE 1.5x worse); such a solve is not applied, and the
+  // merge stands on its Sim(3) alone.
+  std::vector<Eigen::Vector3d> front_points;
+  for (const MapPoint& p : F.points) front_points.push_back(p.position);
+  const double radius = SceneRadius(front_points);
+  std::vector<double> shifts;
+  for (const auto& [kf_id, P] : poses) {
+    if (fixed_kfs.count(kf_id) || !(radius > 0)) continue;
+    const Se3 after = S_fg.TransformPose(Se3(P.q.normalized(), P.t).Inverse());
+    shifts.push_back((after.translation() - F.keyframes[fi.Keyframe(kf_id)].T_wc().translation()).norm() / radius);
+  }
+  if (!shifts.empty()) {
+    rep.median_shift_ratio = Median(shifts).value_or(0.0);
+    rep.max_shift_ratio = *std::max_element(shifts.begin(), shifts.end());
+  }
+  if (rep.max_shift_ratio > options.welding_max_shift) {
+    rep.reverted = true;
+    return rep;
+  }
   // Back into the front submap's own frame.
   for (const auto& [kf_id, P] : poses) {
     if (fixed_kfs.count(kf_id)) continue;

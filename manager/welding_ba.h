@@ -21,6 +21,11 @@ struct WeldingReport {
   int residuals = 0;
   double initial_rmse_px = 0, final_rmse_px = 0;
   int iterations = 0;
+  // How far the window keyframes' centres moved, over the front submap's
+  // scene radius (median distance of its points to their centroid).
+  double median_shift_ratio = 0, max_shift_ratio = 0;
+  // max_shift_ratio > welding_max_shift: the solve was not applied.
+  bool reverted = false;
 };
 
 // Keyframe ids of `front`: the seeds plus those sharing at least

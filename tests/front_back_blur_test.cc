@@ -104,6 +104,18 @@ TEST(FrontBackBlur, BackSubmapCoversTheFramesTheFrontLost) {
   const nlohmann::json m = nlohmann::json::parse(Slurp(run / "metrics.json"));
   EXPECT_GE(m["merges"].get<int>(), 1);
   EXPECT_GT(m["merged_tracking_rate_time"].get<double>(), m["front_tracking_rate_time"].get<double>() + 0.3);
+  // The merge audit judged the accepted merges against the ground truth,
+  // and none of them made the map worse.
+  ASSERT_TRUE(m.contains("merge_audit")) << m.dump(1);
+  int accepted = 0;
+  for (const auto& a : m["merge_audit"]) {
+    if (!a["accepted"].get<bool>()) continue;
+    ++accepted;
+    EXPECT_TRUE(a["ate_joint"].is_number() && a["ate_a"].is_number()) << a.dump();
+  }
+  EXPECT_EQ(accepted, m["merges"].get<int>()) << m["merge_audit"].dump(1);
+  EXPECT_EQ(m["merges_harmful"].get<int>(), 0) << m["merge_audit"].dump(1);
+  EXPECT_TRUE(m["merged_ate_front_frames"].is_number());
   std::printf("front lost %zu frames (%ld in the blur), window %zu (S2 %zu), back submap holds %zu (%zu lost ones); "
               "front %.1f %% -> merged %.1f %%, back %.1f s\n",
               lost.size(), static_cast<long>(lost_in_blur), window_stamps.size(), s2.size(), best, best_lost,

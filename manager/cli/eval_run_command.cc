@@ -32,6 +32,8 @@
 #include "configs/rumi_config.h"
 #include "ipc/segments.h"
 #include "manager/cli/commands.h"
+#include "manager/map_file.h"
+#include "manager/merge_audit.h"
 
 namespace rumi::cli {
 namespace fs = std::filesystem;
@@ -177,6 +179,36 @@ void LoadFrontFrames(const fs::path& front_dir, std::vector<TimelineFrame>* time
   }
 }
 
+// The merge audit (manager/merge_audit.h) from the raw map and the manager's
+// merge reports; skipped with a log line when either is missing.
+void AuditRunMerges(const fs::path& manager_dir, const Trajectory& ground_truth, RunMetricsReport* report) {
+  const fs::path raw = manager_dir / "map.rumi.raw", stats = manager_dir / "manager_stats.json";
+  if (ground_truth.empty()) return;
+  if (!fs::exists(raw)) {
+    spdlog::warn("{} missing: no merge audit", raw.string());
+    return;
+  }
+  GlobalMap map;
+  std::string why;
+  if (!LoadGlobalMap(raw.string(), &map, &why)) {
+    spdlog::warn("no merge audit: {}", why);
+    return;
+  }
+  try {
+    report->merge_audit = AuditMerges(map, ReadMergeAttempts(stats.string()), ground_truth);
+  } catch (const std::exception& e) {
+    spdlog::warn("no merge audit: {}", e.what());
+    return;
+  }
+  report->merge_audit_done = true;
+  int harmful = 0;
+  for (const MergeAuditRow& m : report->merge_audit) harmful += m.accepted && m.harmful;
+  if (harmful > 0)
+    report->warnings.push_back(std::to_string(harmful) +
+                               " accepted merge(s) made the map worse against the ground truth (metrics.json "
+                               "merge_audit)");
+}
+
 RunMetricsReport ComputeMetricsForRun(bool no_back, const Sequence& seq, const RunFiles& files,
                                       const std::string& sequence_name, const std::string& title) {
   auto required = [&](const fs::path& p) {
@@ -207,10 +239,14 @@ RunMetricsReport ComputeMetricsForRun(bool no_back, const Sequence& seq, const R
     in.counts.saved_frames = in.counts.saved_frames_postculled = in.counts.front_saved_frames;
   } else {
     in.merged = ReadTumTrajectory(required(files.manager / "merged.txt"), ro);
+    for (int k = 0; fs::exists(files.manager / ("merged_" + std::to_string(k) + ".txt")); ++k)
+      in.components.push_back(
+          ReadTumTrajectory((files.manager / ("merged_" + std::to_string(k) + ".txt")).string(), ro));
     ReadBackStats(required(files.back / "back_stats.json"), &in.counts);
     ReadManagerStats(required(files.manager / "manager_stats.json"), &in.counts);
   }
-  const RunMetricsReport report = ComputeRunMetrics(in);
+  RunMetricsReport report = ComputeRunMetrics(in);
+  if (!no_back) AuditRunMerges(files.manager, seq.ground_truth, &report);
   WriteRunMetricsJson((files.out / "metrics.json").string(), report);
 
   // Plots.
