@@ -21,17 +21,12 @@
 #include "ipc/submap_codec.h"
 #include "manager/map_file.h"
 #include "manager/map_grid.h"
+#include "manager/sim3_json.h"
 
 namespace rumi {
 namespace fs = std::filesystem;
 
 namespace {
-
-nlohmann::json Sim3Json(const Sim3& S) {
-  const auto& q = S.rotation();
-  const auto& t = S.translation();
-  return {{"s", S.scale()}, {"q_xyzw", {q.x(), q.y(), q.z(), q.w()}}, {"t", {t.x(), t.y(), t.z()}}};
-}
 
 nlohmann::json ReportJson(const MergeReport& r) {
   nlohmann::json j = {{"kind", r.kind},
@@ -64,7 +59,7 @@ nlohmann::json ReportJson(const MergeReport& r) {
                       {"pose_offset_ratio", r.pose_offset_ratio}};
   // Also for a merge rejected after refinement: the merge audit
   // (merge_audit.h) measures what accepting it would have done.
-  if (r.merged || r.refined) j["S_bf"] = Sim3Json(r.S_bf);
+  if (r.merged || r.refined) j["S_bf"] = Sim3ToJson(r.S_bf);
   return j;
 }
 

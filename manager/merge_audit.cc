@@ -8,6 +8,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "manager/sim3_json.h"
+
 namespace rumi {
 namespace {
 
@@ -54,15 +56,6 @@ double Rms(const std::vector<double>& r, size_t begin, size_t end) {
   return end > begin ? std::sqrt(s / double(end - begin)) : 0.0;
 }
 
-Sim3 ParseSim3(const nlohmann::json& j) {
-  const auto& q = j.at("q_xyzw");
-  const auto& t = j.at("t");
-  return Sim3(j.at("s").get<double>(),
-              Eigen::Quaterniond(q.at(3).get<double>(), q.at(0).get<double>(), q.at(1).get<double>(),
-                                 q.at(2).get<double>()),
-              Eigen::Vector3d(t.at(0).get<double>(), t.at(1).get<double>(), t.at(2).get<double>()));
-}
-
 }  // namespace
 
 std::vector<MergeAttempt> ReadMergeAttempts(const std::string& path) {
@@ -83,7 +76,7 @@ std::vector<MergeAttempt> ReadMergeAttempts(const std::string& path) {
       a.reason = r.value("reason", "");
       a.rejected_by = r.value("rejected_by", "");
       a.has_transform = true;
-      a.S_ba = ParseSim3(r.at("S_bf"));
+      a.S_ba = Sim3FromJson(r.at("S_bf"));
       out.push_back(a);
     }
   } catch (const nlohmann::json::exception& e) {

@@ -14,6 +14,7 @@
 #include "common/atomic_file.h"
 #include "common/process/exit_codes.h"
 #include "common/trajectory.h"
+#include "manager/sim3_json.h"
 #include "configs/rumi_config.h"
 #include "manager/cli/commands.h"
 #include "manager/daemon/daemon_status.h"
@@ -259,12 +260,8 @@ void Submaps(const QueryArgs& a) {
   if (a.json) {
     nlohmann::json j = nlohmann::json::array();
     for (const SnapshotSubmap& s : r.submaps) {
-      const auto& qq = s.S_gl.rotation();
-      const auto& t = s.S_gl.translation();
       j.push_back({{"key", s.key}, {"component", s.component}, {"keyframes", s.keyframes}, {"points", s.points},
-                   {"first_ns", s.first}, {"last_ns", s.last},
-                   {"sim3", {{"s", s.S_gl.scale()}, {"q_xyzw", {qq.x(), qq.y(), qq.z(), qq.w()}},
-                             {"t", {t.x(), t.y(), t.z()}}}}});
+                   {"first_ns", s.first}, {"last_ns", s.last}, {"sim3", Sim3ToJson(s.S_gl)}});
     }
     std::cout << j.dump(2) << "\n";
     return;
