@@ -47,6 +47,10 @@ TEST(BackColmapRunTest, TumOfficeEightFrames) {
   std::printf("colmap steps: extract %.2f s, match %.2f s, map %.2f s, total %.2f s\n",
               r.times.feature_extraction_s, r.times.matching_s, r.times.mapping_s, r.times.total_s);
   ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  // Matched through matches_importer with the selected pairs: 8 lost frames
+  // (no sets in the index) are all within lost_overlap of each other.
+  EXPECT_EQ(o.matcher, "pairs");
+  EXPECT_EQ(r.matched_pairs, 28);
   ASSERT_EQ(r.submaps.size(), 1u);
   const Submap& s = r.submaps[0];
   EXPECT_GE(s.keyframes.size(), 7u);

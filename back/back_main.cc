@@ -142,8 +142,11 @@ int main(int argc, char** argv) {
     std::printf("  read+convert        %8.2f\n", t.read_convert_s);
     std::printf("  total               %8.2f %8.2f\n", t.total_s,
                 t.feature_extraction_cpu_s + t.matching_cpu_s + t.mapping_cpu_s);
-    std::printf("  status %s, %zu submap(s), %d/%d registered\n", ToString(result.status),
-                result.submaps.size(), result.num_registered, result.num_frames);
+    std::printf("  status %s, %zu submap(s), %d/%d registered, %d image pairs selected, %s, %s\n",
+                ToString(result.status), result.submaps.size(), result.num_registered, result.num_frames,
+                result.matched_pairs,
+                !result.filled ? "no fill" : result.fill_kept ? "filled (all pairs kept)" : "filled (selection kept)",
+                !result.retried ? "no retry" : result.retry_kept ? "retried (retry kept)" : "retried (first kept)");
     for (size_t i = 0; i < result.submaps.size(); ++i)
       std::printf("  submap %lld: %d images, %d points, mean reproj %.3f px, track %.2f\n",
                   static_cast<long long>(result.submaps[i].id), result.stats[i].registered_images,

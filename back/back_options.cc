@@ -16,7 +16,9 @@ const OptionSpec<BackOptions>& BackOptions::Spec() {
     s->Number("sift_first_octave", &O::sift_first_octave, AtLeast(-1), AtMost(2), "-1 upsamples (slower)");
     s->Number("sift_upsample_below_width", &O::sift_upsample_below_width, AtLeast(0), AtMost(100000),
               "images narrower than this are upsampled anyway; 0: never");
-    s->Choice("matcher", &O::matcher, {"exhaustive", "sequential"}, "COLMAP matcher");
+    s->Choice("matcher", &O::matcher, {"pairs", "exhaustive", "sequential"},
+              "which image pairs COLMAP matches (pairs: pair_selection.h)");
+    s->Section("pairs", &O::pairs, PairSelectionOptions::Spec());
     s->Number("sequential_overlap", &O::sequential_overlap, AtLeast(1), AtMost(1000),
               "neighbours matched by the sequential matcher");
     s->Number("step_timeout_s", &O::step_timeout_s, Above(0.0), AtMost(86400.0),

@@ -3,6 +3,7 @@
 // kept of the result. Read from the `back:` section of a rumi config.
 #include <string>
 
+#include "back/pair_selection.h"
 #include "common/option_spec.h"
 
 namespace rumi {
@@ -18,7 +19,10 @@ struct BackOptions {
   // 320x240, octave 0 left 6 of 56 frames of a generated blur window out of
   // the model, -1 registered all 56. 0 = never.
   int sift_upsample_below_width = 640;
-  std::string matcher = "exhaustive";  // "exhaustive" | "sequential" (by name = time order)
+  // "pairs": the pairs of pair_selection.h (COLMAP matches_importer);
+  // "exhaustive": every pair; "sequential": neighbours by name = time order.
+  std::string matcher = "pairs";
+  PairSelectionOptions pairs;
   int sequential_overlap = 10;         // neighbours matched by the sequential matcher
   double step_timeout_s = 600.0;       // per COLMAP step; the process group is killed after it
   int min_registered_images = 3;       // smaller models are dropped (also Mapper.min_model_size)

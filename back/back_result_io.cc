@@ -57,6 +57,9 @@ nlohmann::json BackResultSummaryJson(const BackResult& r) {
   j["num_frames"] = r.num_frames;
   j["num_registered"] = r.num_registered;
   j["retried"] = r.retried;
+  j["matched_pairs"] = r.matched_pairs;
+  j["filled"] = r.filled;
+  j["fill_kept"] = r.fill_kept;
   j["retry_kept"] = r.retry_kept;
   j["seconds"] = {{"undistort_write", r.times.undistort_write_s},
                   {"feature_extraction", r.times.feature_extraction_s},

@@ -37,6 +37,8 @@ struct WindowRecord {
   int frames = 0, registered = 0;
   int attempt = 1;                           // 2: retried after the back died on it
   bool retried = false, retry_kept = false;  // lower SIFT threshold tried / kept
+  int matched_pairs = 0;                     // image pairs per attempt
+  bool filled = false, fill_kept = false;    // the remaining pairs matched / kept
   std::vector<int64_t> submap_ids;
   std::vector<std::vector<std::string>> submap_stamps;  // per sent submap: its keyframes' timestamps
   BackStepTimes times;
@@ -81,6 +83,9 @@ nlohmann::ordered_json StatsJson(const Counters& c, Shared& sh, uint64_t dropped
                    {"attempt", w.attempt},
                    {"retried", w.retried},
                    {"retry_kept", w.retry_kept},
+                   {"matched_pairs", w.matched_pairs},
+                   {"filled", w.filled},
+                   {"fill_kept", w.fill_kept},
                    {"submaps", w.submap_ids},
                    {"submap_timestamps", w.submap_stamps},
                    {"seconds",
@@ -409,6 +414,9 @@ int RunBack(const BackRunOptions& o, const std::atomic<bool>* stop) {
     rec.attempt = attempt;
     rec.retried = r.retried;
     rec.retry_kept = r.retry_kept;
+    rec.matched_pairs = r.matched_pairs;
+    rec.filled = r.filled;
+    rec.fill_kept = r.fill_kept;
     rec.times = r.times;
     c.seconds += r.times.total_s;
     // The builder logs the outcome and warnings; a failure sends nothing.

@@ -12,6 +12,7 @@
 #include <unordered_map>
 
 #include "back/keyframe_orb.h"
+#include "back/pair_selection.h"
 #include "common/camera.h"
 #include "common/process/process_info.h"
 #include "common/process/subprocess.h"
@@ -220,6 +221,22 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
   }
   res.times.undistort_write_s = Since(t0);
 
+  // The image pairs to match (matcher "pairs"), by name, for matches_importer.
+  const fs::path pair_list = ws / "pairs.txt";
+  if (options_.matcher == "pairs") {
+    std::vector<SampleSet> sets;
+    for (const WindowFrame& f : window.frames) sets.push_back(f.set);
+    const auto pairs = SelectImagePairs(sets, options_.pairs);
+    std::ofstream out(pair_list);
+    for (const auto& [i, j] : pairs)
+      out << ColmapImageName(window.frames[i].timestamp) << ' ' << ColmapImageName(window.frames[j].timestamp) << '\n';
+    out.close();
+    if (!out) return finish(BackStatus::kIoError, "cannot write " + pair_list.string());
+    res.matched_pairs = int(pairs.size());
+  } else if (options_.matcher == "exhaustive") {
+    res.matched_pairs = res.num_frames * (res.num_frames - 1) / 2;
+  }
+
   const std::string threads = std::to_string(options_.num_threads);
   const PinholeCameraOptions& c = window.camera;
   // COLMAP puts the top-left pixel's centre at (0.5, 0.5): shift cx, cy.
@@ -240,10 +257,13 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
     int largest() const { return built.empty() ? 0 : built.front().stats.registered_images; }
   };
   // Extraction, matching, mapping and conversion with one SIFT peak
-  // threshold, in its own database and model folder.
-  auto run_attempt = [&](double peak_threshold, const std::string& tag) {
+  // threshold, in its own database and model folder. With `fill`, the
+  // database of attempt `tag` is reused: no extraction, the pairs the
+  // selection left out are matched (COLMAP skips pairs already matched),
+  // and the mapper runs again into its own folder.
+  auto run_attempt = [&](double peak_threshold, const std::string& tag, bool fill = false) {
     Attempt at;
-    const fs::path db = ws / ("database" + tag + ".db"), sparse = ws / ("sparse" + tag);
+    const fs::path db = ws / ("database" + tag + ".db"), sparse = ws / ("sparse" + tag + (fill ? "_all" : ""));
     fs::create_directories(sparse, ec);
     if (ec) {
       at.status = BackStatus::kIoError;
@@ -257,7 +277,7 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
       double* cpu_seconds;
     };
     std::vector<Step> steps;
-    steps.push_back({"feature_extraction",
+    if (!fill) steps.push_back({"feature_extraction",
                      {"feature_extractor", "--database_path", db.string(), "--image_path",
                       images.string(), "--ImageReader.camera_model", "PINHOLE",
                       "--ImageReader.single_camera", "1", "--ImageReader.camera_params", params,
@@ -265,15 +285,21 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
                       "--SiftExtraction.max_num_features", std::to_string(options_.max_num_features),
                       "--SiftExtraction.first_octave", std::to_string(first_octave)},
                      &res.times.feature_extraction_s, &res.times.feature_extraction_cpu_s});
-    if (peak_threshold > 0)
+    if (!fill && peak_threshold > 0)
       steps.back().args.insert(steps.back().args.end(), {"--SiftExtraction.peak_threshold", Num(peak_threshold)});
-    if (options_.sift_domain_size_pooling)
+    if (!fill && options_.sift_domain_size_pooling)
       steps.back().args.insert(steps.back().args.end(), {"--SiftExtraction.domain_size_pooling", "1"});
     if (options_.matcher == "sequential") {
       steps.push_back({"matching",
                        {"sequential_matcher", "--database_path", db.string(),
                         "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads", threads,
                         "--SequentialMatching.overlap", std::to_string(options_.sequential_overlap)},
+                       &res.times.matching_s, &res.times.matching_cpu_s});
+    } else if (options_.matcher == "pairs" && !fill) {
+      steps.push_back({"matching",
+                       {"matches_importer", "--database_path", db.string(), "--match_list_path",
+                        pair_list.string(), "--match_type", "pairs", "--SiftMatching.use_gpu", "0",
+                        "--SiftMatching.num_threads", threads},
                        &res.times.matching_s, &res.times.matching_cpu_s});
     } else {
       steps.push_back({"matching",
@@ -358,10 +384,28 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
 
   Attempt at = run_attempt(options_.sift_peak_threshold, "");
   if (at.status != BackStatus::kOk) return finish(at.status, at.message);
+  const int frames = static_cast<int>(window.frames.size());
+  // Selected pairs that leave frames out: first the pairs left out, on the
+  // same features (a 53-frame blur window: 48 frames with pairs + retry,
+  // 50 with every pair at the first threshold).
+  if (options_.matcher == "pairs" && options_.retry_below_registered > 0 &&
+      at.largest() < options_.retry_below_registered * frames) {
+    spdlog::info("window {}: {}/{} frames in the largest model; matching the remaining image pairs", window.id,
+                 at.largest(), frames);
+    Attempt all = run_attempt(options_.sift_peak_threshold, "", true);
+    res.filled = true;
+    if (all.status == BackStatus::kCancelled) return finish(all.status, all.message);
+    if (all.status != BackStatus::kOk) {
+      res.warnings.push_back("matching the remaining pairs failed: " + all.message);
+    } else if (all.largest() > at.largest()) {
+      res.warnings.push_back("selected pairs: " + std::to_string(at.largest()) + " frames in the largest model");
+      at = std::move(all);
+      res.fill_kept = true;
+    }
+  }
   // Texture-poor windows (a plain corridor wall) give SIFT too few features at
   // the usual threshold: when the largest model misses too many frames, the
   // whole window is tried again with a lower one and the larger model kept.
-  const int frames = static_cast<int>(window.frames.size());
   if (options_.retry_peak_threshold > 0 && options_.retry_peak_threshold != options_.sift_peak_threshold &&
       at.largest() < options_.retry_below_registered * frames) {
     spdlog::info("window {}: {}/{} frames in the largest model; retrying with SIFT peak threshold {}", window.id,

@@ -49,10 +49,13 @@ struct BackResult {
   std::vector<BackSubmapStats> stats;  // parallel to submaps
   int num_frames = 0;
   int num_registered = 0;              // over all kept submaps
+  int matched_pairs = 0;               // image pairs matched per attempt (sequential: 0, COLMAP picks)
   BackStepTimes times;
   std::string workspace;               // path when kept, else ""
   bool retried = false;                // a second attempt with retry_peak_threshold ran
   bool retry_kept = false;             // ... and its model was larger
+  bool filled = false;                 // matcher pairs fell short: the other pairs matched too
+  bool fill_kept = false;              // ... and that model was larger
   bool ok() const { return status == BackStatus::kOk; }
 };
 

@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -73,7 +74,7 @@ class BackSubmapBuilderTest : public ::testing::Test {
 
 TEST_F(BackSubmapBuilderTest, FailingStepIsReportedAndWorkspaceRemoved) {
   options_.colmap_path = FakeColmap(
-      "if [ $cmd = exhaustive_matcher ]; then echo 'ERROR: database locked' >&2; exit 1; fi");
+      "if [ $cmd = matches_importer ]; then echo 'ERROR: database locked' >&2; exit 1; fi");
   BackSubmapBuilder b(options_);
   const BackResult r = b.Build(window_);
   EXPECT_EQ(r.status, BackStatus::kColmapFailed);
@@ -189,9 +190,22 @@ TEST_F(BackSubmapBuilderTest, ModelsBecomeSubmapsAndArgumentsAreRight) {
         "--SiftExtraction.num_threads 2", "--SiftExtraction.max_num_features 2048",
         "--SiftMatching.num_threads 2", "--Mapper.num_threads 2", "--Mapper.ba_refine_focal_length 0",
         "--Mapper.ba_refine_principal_point 0", "--Mapper.ba_refine_extra_params 0",
-        "--Mapper.min_model_size 3", "exhaustive_matcher"}) {
+        "--Mapper.min_model_size 3", "matches_importer", "--match_type pairs"}) {
     EXPECT_NE(args.find(want), std::string::npos) << want << "\nin:\n" << args;
   }
+  // The selected pairs, by image name: 5 frames within `overlap` of each
+  // other are all paired.
+  EXPECT_EQ(r.matched_pairs, 10);
+  std::ifstream pair_list(fs::path(r.workspace) / "pairs.txt");
+  std::string first, second;
+  int pairs = 0;
+  while (pair_list >> first >> second) {
+    ++pairs;
+    EXPECT_LT(first, second);
+    EXPECT_NE(std::find(listed.begin(), listed.end(), first), listed.end()) << first;
+    EXPECT_NE(std::find(listed.begin(), listed.end(), second), listed.end()) << second;
+  }
+  EXPECT_EQ(pairs, 10);
   EXPECT_EQ(args.find("domain_size_pooling"), std::string::npos) << "DSP-SIFT is off by default";
   // Workspace kept on request.
   ASSERT_FALSE(r.workspace.empty());
@@ -244,6 +258,42 @@ TEST_F(BackSubmapBuilderTest, RetryWithLowerPeakThresholdKeepsTheLargerModel) {
   EXPECT_FALSE(r.retried);
   EXPECT_EQ(r.submaps[0].keyframes.size(), 3u);
   EXPECT_EQ(Args().find("database_retry.db"), std::string::npos);
+}
+
+// Selected pairs that leave frames out of the model: the remaining pairs are
+// matched on the same features (no second extraction) and mapped again; the
+// lower-threshold retry is not needed once that model holds the window.
+TEST_F(BackSubmapBuilderTest, SelectedPairsFallingShortAreFilledBeforeTheRetry) {
+  std::vector<Timestamp> t;
+  for (const auto& f : window_.frames) t.push_back(f.timestamp);
+  const fs::path few = root_ / "few", all = root_ / "all";
+  WriteCannedModel(few / "0", window_.camera, {t[0], t[1], t[2]});
+  WriteCannedModel(all / "0", window_.camera, {t[0], t[1], t[2], t[3], t[4]});
+  options_.colmap_path = FakeColmap("if [ $cmd = mapper ]; then case \"$out\" in *sparse_all) cp -r " +
+                                    all.string() + "/* $out/;; *) cp -r " + few.string() + "/* $out/;; esac; fi");
+  BackResult r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  EXPECT_TRUE(r.filled);
+  EXPECT_TRUE(r.fill_kept);
+  EXPECT_FALSE(r.retried);
+  ASSERT_EQ(r.submaps.size(), 1u);
+  EXPECT_EQ(r.submaps[0].keyframes.size(), 5u);
+  const std::string args = Args();
+  const size_t importer = args.find("matches_importer"), exhaustive = args.find("exhaustive_matcher");
+  ASSERT_NE(importer, std::string::npos) << args;
+  ASSERT_NE(exhaustive, std::string::npos) << args;
+  EXPECT_LT(importer, exhaustive);
+  EXPECT_EQ(args.find("feature_extractor"), args.rfind("feature_extractor")) << "features extracted once";
+  EXPECT_EQ(args.find("database_retry.db"), std::string::npos);
+  EXPECT_TRUE(WorkspaceEmpty());
+
+  // Exhaustive matching from the start has nothing to fill.
+  fs::remove(root_ / "args.txt");
+  options_.matcher = "exhaustive";
+  r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  EXPECT_FALSE(r.filled);
+  EXPECT_TRUE(r.retried);
 }
 
 // The retry is kept only when it is larger; a failing retry leaves the first.
@@ -317,7 +367,7 @@ TEST(BackOptionsTest, ReadAndCheck) {
   EXPECT_TRUE(o.Check());
   ConfigSection s = LoadConfigString(
       "back: {num_threads: 1, max_num_features: 1024, matcher: sequential, step_timeout_s: 30, "
-      "sift_domain_size_pooling: true}");
+      "sift_domain_size_pooling: true, pairs: {overlap: 5, quadratic: false}}");
   ConfigSection b = s.Child("back");
   ReadOptions(b, &o);
   EXPECT_EQ(o.num_threads, 1);
@@ -325,10 +375,14 @@ TEST(BackOptionsTest, ReadAndCheck) {
   EXPECT_EQ(o.matcher, "sequential");
   EXPECT_EQ(o.step_timeout_s, 30.0);
   EXPECT_TRUE(o.sift_domain_size_pooling);
+  EXPECT_EQ(o.pairs.overlap, 5);
+  EXPECT_FALSE(o.pairs.quadratic);
+  EXPECT_EQ(o.pairs.lost_overlap, PairSelectionOptions().lost_overlap);
   EXPECT_NO_THROW(b.Finish());
 
   for (const char* bad : {"back: {matcher: fancy}", "back: {num_threads: 0}", "back: {num_threads: x}",
-                          "back: {step_timeout_s: -1}", "back: {max_queue_windows: 0}"}) {
+                          "back: {step_timeout_s: -1}", "back: {max_queue_windows: 0}",
+                          "back: {pairs: {overlap: 0}}", "back: {pairs: {bridge_frames: -1}}"}) {
     BackOptions o2;
     ConfigSection s2 = LoadConfigString(bad);
     ConfigSection b2 = s2.Child("back");

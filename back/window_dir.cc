@@ -39,9 +39,13 @@ bool ReadWindowDir(const std::string& dir, const PinholeCameraOptions& camera,
     const size_t first = line.find_first_not_of(" \t\r");
     if (first == std::string::npos || line[first] == '#') continue;
     std::istringstream ls(line);
-    std::string ts_text, path;
+    std::string ts_text, path, set_text;
     if (!(ls >> ts_text >> path))
-      return fail(index.string() + ":" + std::to_string(line_no) + ": expected '<seconds> <path>'");
+      return fail(index.string() + ":" + std::to_string(line_no) + ": expected '<seconds> <path> [set]'");
+    SampleSet set = SampleSet::kS2;  // no set given: a lost stretch of its own
+    if ((ls >> set_text) && !ParseSampleSet(set_text, &set))
+      return fail(index.string() + ":" + std::to_string(line_no) + ": set must be 1, 2, 3 (or S1..S3), got '" +
+                  set_text + "'");
     Timestamp t = 0;
     if (!ParseSecondsToNs(ts_text, &t))
       return fail(index.string() + ":" + std::to_string(line_no) + ": bad timestamp '" + ts_text + "'");
@@ -53,6 +57,8 @@ bool ReadWindowDir(const std::string& dir, const PinholeCameraOptions& camera,
                                                   : std::filesystem::path(dir) / path;
     WindowFrame f;
     f.timestamp = t;
+    f.set = set;
+    f.front_state = set == SampleSet::kS2 ? TrackingState::kLost : TrackingState::kTracking;
     f.image = cv::imread(p.string(), cv::IMREAD_GRAYSCALE);
     if (f.image.empty()) return fail(p.string() + ": cannot read image");
     if (f.image.cols != camera.width || f.image.rows != camera.height)

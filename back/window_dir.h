@@ -1,7 +1,8 @@
 #pragma once
 // A window stored as a folder, for rumi-back's file mode and its tests: an
-// index file (rgb.txt style: "<seconds> <image path>" per line, '#' comments,
-// paths relative to the folder) plus the camera (common/camera_config.h).
+// index file (rgb.txt style: "<seconds> <image path> [set]" per line, '#'
+// comments, paths relative to the folder; set 1, 2, 3 or S1..S3, S2 when
+// absent) plus the camera (common/camera_config.h).
 #include <string>
 
 #include "common/camera.h"

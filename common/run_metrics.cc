@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/atomic_file.h"
+#include "common/window.h"
 
 namespace rumi {
 namespace {
@@ -311,10 +312,9 @@ std::vector<FrontSampleLine> ParseFrontSamples(std::istream& in, const std::stri
     if (f.size() < 3) fail("expected 't_seconds set window_id'");
     FrontSampleLine s;
     if (!ParseSecondsToNs(f[0], &s.t)) fail("bad timestamp '" + f[0] + "'");
-    std::string set = f[1];
-    if (set.size() == 2 && (set[0] == 'S' || set[0] == 's')) set = set.substr(1);
-    if (set != "1" && set != "2" && set != "3") fail("set must be 1, 2, 3 (or S1..S3), got '" + f[1] + "'");
-    s.set = set[0] - '0';
+    SampleSet set;
+    if (!ParseSampleSet(f[1], &set)) fail("set must be 1, 2, 3 (or S1..S3), got '" + f[1] + "'");
+    s.set = int(set);
     if (!ParseInt(f[2], &s.window_id)) fail("bad window id '" + f[2] + "'");
     out.push_back(s);
   }

@@ -5,6 +5,7 @@
 #include <opencv2/core.hpp>
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "common/camera.h"
@@ -14,6 +15,14 @@
 namespace rumi {
 
 enum class SampleSet : uint8_t { kS1 = 1, kS2 = 2, kS3 = 3 };
+
+// "1", "2", "3" or "S1".."S3" (either case); false for anything else.
+inline bool ParseSampleSet(std::string text, SampleSet* set) {
+  if (text.size() == 2 && (text[0] == 'S' || text[0] == 's')) text = text.substr(1);
+  if (text != "1" && text != "2" && text != "3") return false;
+  *set = static_cast<SampleSet>(text[0] - '0');
+  return true;
+}
 
 struct WindowFrame {
   Timestamp timestamp = 0;

@@ -46,7 +46,7 @@ nlohmann::json ReportJson(const MergeReport& r) {
                       {"fused_points", r.fused_points},
                       {"welding_keyframes", r.welding.window_keyframes},
                       {"welding_max_shift", r.welding.max_shift_ratio},
-                      {"welding_applied", !r.welding.reverted},
+                      {"welding_applied", r.welding.applied},
                       {"welding_initial_rmse_px", r.welding.initial_rmse_px},
                       {"welding_final_rmse_px", r.welding.final_rmse_px},
                       {"seconds_align", r.seconds_align},

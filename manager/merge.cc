@@ -132,7 +132,7 @@ MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& sear
       ToString(r.front), ToString(r.back), r.front_moved ? "front" : "back", r.keyframe_pairs, r.frame_pairs, r.common_points, r.inlier_ratio, r.init_method,
       r.S_bf.scale(), r.refine_initial_rmse_px, r.refine_final_rmse_px, r.fused_points,
       r.welding.window_keyframes, r.welding.initial_rmse_px, r.welding.final_rmse_px, r.welding.median_shift_ratio,
-      r.welding.max_shift_ratio, r.welding.reverted ? ": not applied" : "", r.agreeing_pairs, r.pose_pairs,
+      r.welding.max_shift_ratio, r.welding.applied ? "" : r.welding.reverted ? ": not applied" : ": off", r.agreeing_pairs, r.pose_pairs,
       r.pose_angle_deg, r.pose_offset_ratio);
   return r;
 }

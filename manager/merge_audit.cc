@@ -158,7 +158,8 @@ std::vector<MergeAuditRow> AuditMerges(const GlobalMap& raw, const std::vector<M
     Eigen::Vector3d lo = joint.gt[0], hi = joint.gt[0];
     for (const auto& g : joint.gt) lo = lo.cwiseMin(g), hi = hi.cwiseMax(g);
     const double floor = o.floor_ratio * (hi - lo).norm();
-    row.harmful = u.rmse > o.joint_ratio * std::max(*row.ate_a, row.ate_b.value_or(0.0)) + floor;
+    row.harmful = u.rmse > o.joint_ratio * std::max(*row.ate_a, row.ate_b.value_or(0.0)) + floor ||
+                  u.rmse > o.front_ratio * *row.ate_a + floor;
     rows.push_back(row);
   }
   return rows;

@@ -20,6 +20,12 @@
 // alignment a front that drifts far from the junction shows its own drift
 // next to an accurate back, which is not the merge's doing (what merging
 // does to the front's frames is metrics.json merged_ate_front_frames).
+// Also harmful: ate_joint > front_ratio x ate_a + floor, whatever ate_b:
+// a back submap that is itself broken (COLMAP joined two places through a
+// repeated pattern: `kidnap` seed 3, its own ATE 0.27 m against 0.006 m for
+// the front) is as bad alone as joined, so the first rule excuses it, yet
+// merging it puts that error into the map. Right merges of the November
+// 2026 runs stayed within 3.5 x (a blurred back at 4 x the front's ATE).
 // The floor keeps noise on millimetre errors from counting as harm.
 #include <string>
 #include <vector>
@@ -36,6 +42,7 @@ namespace rumi {
 struct MergeAuditOptions {
   double near_s = 3.0;
   double joint_ratio = 1.5;
+  double front_ratio = 5.0;
   double floor_ratio = 0.001;
   AssociationOptions association;
 };

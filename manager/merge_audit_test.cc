@@ -53,6 +53,28 @@ TEST(MergeAudit, ARightMergeIsHarmlessAWrongOneHarmful) {
   EXPECT_GT(*rows[1].ate_joint, 5 * *rows[0].ate_joint);
 }
 
+// A back submap that is broken in itself (its second half 2 m off) merged
+// with the right Sim(3) for its first half: as bad joined as alone, yet it
+// puts its error into the map.
+TEST(MergeAudit, ABrokenBackSubmapIsHarmfulEvenWhenNoWorseJoined) {
+  Fixture f;
+  Submap& back = f.raw.submap(1);
+  for (size_t k = back.keyframes.size() / 2; k < back.keyframes.size(); ++k)
+    back.keyframes[k].T_cw = back.keyframes[k].T_cw * Se3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(2, 0, 0));
+  MergeAuditOptions o;
+  auto rows = AuditMerges(f.raw, {f.Attempt(f.S_true, true)}, f.gt, o);
+  ASSERT_EQ(rows.size(), 1u);
+  ASSERT_TRUE(rows[0].ate_a && rows[0].ate_b && rows[0].ate_joint);
+  EXPECT_GT(*rows[0].ate_b, 10 * *rows[0].ate_a);
+  EXPECT_GT(*rows[0].ate_joint, o.front_ratio * *rows[0].ate_a);
+  EXPECT_TRUE(rows[0].harmful);
+  // By the first rule alone it would pass: joined no worse than 1.5 x the back alone.
+  EXPECT_LT(*rows[0].ate_joint, o.joint_ratio * *rows[0].ate_b);
+  o.front_ratio = 1e9;
+  rows = AuditMerges(f.raw, {f.Attempt(f.S_true, true)}, f.gt, o);
+  EXPECT_FALSE(rows[0].harmful);
+}
+
 TEST(MergeAudit, MissingSubmapsAndTruthAreNotedNotThrown) {
   const Fixture f;
   MergeAttempt m = f.Attempt(f.S_true, true);

@@ -87,7 +87,7 @@ int Main(int argc, char** argv) {
         r.inlier_ratio, r.init_method.empty() ? "-" : r.init_method, r.S_bf.scale(), r.refine_initial_rmse_px,
         r.refine_final_rmse_px, r.agreeing_pairs, r.pose_pairs, r.pose_angle_deg, r.pose_offset_ratio,
         r.fused_points, r.welding.median_shift_ratio, r.welding.max_shift_ratio,
-        r.welding.reverted ? "(not applied)" : "", r.seconds_align, r.seconds_refine,
+        r.welding.applied ? "" : r.welding.reverted ? "(not applied)" : "(off)", r.seconds_align, r.seconds_refine,
         r.seconds_weld,
         r.reason.empty() ? "" : " reason=\"" + r.reason + "\"");
   }

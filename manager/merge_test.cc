@@ -43,7 +43,9 @@ TEST(Merge, ChainsFrontAThroughBackToFrontB) {
   const double rmse_before = AlignedCentreRmse(map, s, {a, k, b}, &rot);
   EXPECT_GT(rmse_before, 0.5);
 
-  const auto reports = MergeAll(&map, ManagerOptions());
+  ManagerOptions welding;
+  welding.welding_ba = true;
+  const auto reports = MergeAll(&map, welding);
   int merged = 0;
   for (const auto& r : reports) merged += r.merged;
   EXPECT_EQ(merged, 2);
@@ -80,6 +82,7 @@ TEST(Merge, WeldingMovesOnlyTheWindowAndKeepsBackFixed) {
   const int k = map.AddSubmap(s.back.submap);
   const SearchSet set = BuildSearchSet({&map.submap(a)}, {&map.submap(k)}, 10);
   ManagerOptions o;
+  o.welding_ba = true;
   // A dense synthetic view: with the default 15 every keyframe of A is
   // covisible with the seeds. A high threshold leaves the start of A out.
   o.welding_min_covisible = 300;
@@ -114,6 +117,23 @@ TEST(Merge, WeldingMovesOnlyTheWindowAndKeepsBackFixed) {
   EXPECT_EQ(again.reason, "already connected");
 }
 
+// By default no welding BA runs: the front keeps every local pose, the merge
+// is its Sim(3) and the fused points.
+TEST(Merge, WeldingIsOffByDefault) {
+  const auto s = testing::MakeScenario();
+  GlobalMap map;
+  const int a = map.AddSubmap(s.front_a.submap);
+  const int k = map.AddSubmap(s.back.submap);
+  const SearchSet set = BuildSearchSet({&map.submap(a)}, {&map.submap(k)}, 10);
+  const auto r = MergePair(&map, a, k, set, ManagerOptions());
+  ASSERT_TRUE(r.merged) << r.reason;
+  EXPECT_GT(r.fused_points, 50);
+  EXPECT_FALSE(r.welding.applied);
+  EXPECT_EQ(r.welding.window_keyframes, 0);
+  for (size_t i = 0; i < s.front_a.submap.keyframes.size(); ++i)
+    EXPECT_TRUE(map.submap(a).keyframes[i].T_cw.Matrix().isApprox(s.front_a.submap.keyframes[i].T_cw.Matrix()));
+}
+
 // A welding solve that moves a keyframe further than welding_max_shift x the
 // scene radius is not applied: the merge stands on its Sim(3).
 TEST(Merge, WeldingThatMovesKeyframesTooFarIsNotApplied) {
@@ -124,6 +144,7 @@ TEST(Merge, WeldingThatMovesKeyframesTooFarIsNotApplied) {
     const int k = map.AddSubmap(s.back.submap);
     const SearchSet set = BuildSearchSet({&map.submap(a)}, {&map.submap(k)}, 10);
     ManagerOptions o;
+    o.welding_ba = true;
     o.welding_max_shift = max_shift;
     const auto r = MergePair(&map, a, k, set, o);
     ASSERT_TRUE(r.merged) << r.reason;
@@ -135,6 +156,7 @@ TEST(Merge, WeldingThatMovesKeyframesTooFarIsNotApplied) {
     for (size_t i = 0; i < s.front_a.submap.keyframes.size(); ++i)
       moved |= !map.submap(a).keyframes[i].T_cw.Matrix().isApprox(s.front_a.submap.keyframes[i].T_cw.Matrix());
     EXPECT_EQ(moved, !r.welding.reverted);
+    EXPECT_EQ(r.welding.applied, !r.welding.reverted);
     EXPECT_TRUE(map.Connected(a, k));
   }
 }

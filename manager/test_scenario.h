@@ -154,7 +154,10 @@ inline void ExpectMatchesTruth(const Scenario& s, const std::vector<TumRow>& row
   for (size_t i = 0; i < rows.size(); ++i)
     max_rot = std::max(max_rot, RotationAngle(u.transform.rotation() * rows[i].q *
                                               s.scene.T_wc[first + i].rotation().conjugate()));
-  EXPECT_LT(max_rot, 0.015);  // catches a written quaternion in the wrong order / direction
+  // Catches a written quaternion in the wrong order / direction (errors of
+  // 0.1 rad and more); the scenario's own pose noise (0.002 rad per axis)
+  // reaches 0.0153 at its worst row when no welding BA smooths it.
+  EXPECT_LT(max_rot, 0.025);
 }
 
 inline double Sim3RotationError(const Sim3& a, const Sim3& b) {

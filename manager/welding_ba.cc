@@ -193,6 +193,7 @@ WeldingReport WeldWindow(GlobalMap* map, int front, int back, const std::unorder
     kf.T_cw = S_fg.TransformPose(Se3(P.q.normalized(), P.t).Inverse()).Inverse();
   }
   for (const auto& [pid, X] : points) F.points[fi.Point(pid)].position = S_fg * X;
+  rep.applied = true;
   return rep;
 }
 

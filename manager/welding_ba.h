@@ -26,6 +26,8 @@ struct WeldingReport {
   double median_shift_ratio = 0, max_shift_ratio = 0;
   // max_shift_ratio > welding_max_shift: the solve was not applied.
   bool reverted = false;
+  // The solve ran and its poses and points were written back.
+  bool applied = false;
 };
 
 // Keyframe ids of `front`: the seeds plus those sharing at least
