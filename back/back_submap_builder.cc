@@ -385,6 +385,16 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
   Attempt at = run_attempt(options_.sift_peak_threshold, "");
   if (at.status != BackStatus::kOk) return finish(at.status, at.message);
   const int frames = static_cast<int>(window.frames.size());
+  // A further attempt replaces `at` when its largest model is larger.
+  auto adopt_if_larger = [&](Attempt next, const std::string& failed, const std::string& before, bool* kept) {
+    if (next.status != BackStatus::kOk) {
+      res.warnings.push_back(failed + next.message);
+    } else if (next.largest() > at.largest()) {
+      res.warnings.push_back(before + std::to_string(at.largest()) + " frames in the largest model");
+      at = std::move(next);
+      *kept = true;
+    }
+  };
   // Selected pairs that leave frames out: first the pairs left out, on the
   // same features (a 53-frame blur window: 48 frames with pairs + retry,
   // 50 with every pair at the first threshold).
@@ -395,13 +405,7 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
     Attempt all = run_attempt(options_.sift_peak_threshold, "", true);
     res.filled = true;
     if (all.status == BackStatus::kCancelled) return finish(all.status, all.message);
-    if (all.status != BackStatus::kOk) {
-      res.warnings.push_back("matching the remaining pairs failed: " + all.message);
-    } else if (all.largest() > at.largest()) {
-      res.warnings.push_back("selected pairs: " + std::to_string(at.largest()) + " frames in the largest model");
-      at = std::move(all);
-      res.fill_kept = true;
-    }
+    adopt_if_larger(std::move(all), "matching the remaining pairs failed: ", "selected pairs: ", &res.fill_kept);
   }
   // Texture-poor windows (a plain corridor wall) give SIFT too few features at
   // the usual threshold: when the largest model misses too many frames, the
@@ -413,13 +417,7 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
     Attempt retry = run_attempt(options_.retry_peak_threshold, "_retry");
     res.retried = true;
     if (retry.status == BackStatus::kCancelled) return finish(retry.status, retry.message);
-    if (retry.status != BackStatus::kOk) {
-      res.warnings.push_back("retry with a lower SIFT threshold failed: " + retry.message);
-    } else if (retry.largest() > at.largest()) {
-      res.warnings.push_back("first attempt: " + std::to_string(at.largest()) + " frames in the largest model");
-      at = std::move(retry);
-      res.retry_kept = true;
-    }
+    adopt_if_larger(std::move(retry), "retry with a lower SIFT threshold failed: ", "first attempt: ", &res.retry_kept);
   }
   res.warnings.insert(res.warnings.end(), at.warnings.begin(), at.warnings.end());
   if (options_.orb_features > 0) {

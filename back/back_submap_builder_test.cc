@@ -57,6 +57,17 @@ class BackSubmapBuilderTest : public ::testing::Test {
     ::chmod(p.c_str(), 0755);
     return p.string();
   }
+  // A fake colmap whose mapper writes a model of 3 of the 5 frames, or of
+  // all 5 into a model folder ending in `full`.
+  std::string MapperFewOrAll(const std::string& full) {
+    std::vector<Timestamp> t;
+    for (const auto& f : window_.frames) t.push_back(f.timestamp);
+    const fs::path few = root_ / "few", all = root_ / "all";
+    WriteCannedModel(few / "0", window_.camera, {t[0], t[1], t[2]});
+    WriteCannedModel(all / "0", window_.camera, t);
+    return FakeColmap("if [ $cmd = mapper ]; then case \"$out\" in *" + full + ") cp -r " + all.string() +
+                      "/* $out/;; *) cp -r " + few.string() + "/* $out/;; esac; fi");
+  }
   std::string Args() const {
     std::ifstream in(root_ / "args.txt");
     std::stringstream ss;
@@ -215,13 +226,7 @@ TEST_F(BackSubmapBuilderTest, ModelsBecomeSubmapsAndArgumentsAreRight) {
 // A texture-poor window: the first attempt's largest model misses frames, the
 // retry with a lower SIFT peak threshold (its own database) registers them all.
 TEST_F(BackSubmapBuilderTest, RetryWithLowerPeakThresholdKeepsTheLargerModel) {
-  std::vector<Timestamp> t;
-  for (const auto& f : window_.frames) t.push_back(f.timestamp);
-  const fs::path few = root_ / "few", all = root_ / "all";
-  WriteCannedModel(few / "0", window_.camera, {t[0], t[1], t[2]});
-  WriteCannedModel(all / "0", window_.camera, {t[0], t[1], t[2], t[3], t[4]});
-  options_.colmap_path = FakeColmap("if [ $cmd = mapper ]; then case \"$out\" in *sparse_retry) cp -r " +
-                                    all.string() + "/* $out/;; *) cp -r " + few.string() + "/* $out/;; esac; fi");
+  options_.colmap_path = MapperFewOrAll("sparse_retry");
   options_.sift_domain_size_pooling = true;
   BackSubmapBuilder b(options_);
   BackResult r = b.Build(window_);
@@ -264,13 +269,7 @@ TEST_F(BackSubmapBuilderTest, RetryWithLowerPeakThresholdKeepsTheLargerModel) {
 // matched on the same features (no second extraction) and mapped again; the
 // lower-threshold retry is not needed once that model holds the window.
 TEST_F(BackSubmapBuilderTest, SelectedPairsFallingShortAreFilledBeforeTheRetry) {
-  std::vector<Timestamp> t;
-  for (const auto& f : window_.frames) t.push_back(f.timestamp);
-  const fs::path few = root_ / "few", all = root_ / "all";
-  WriteCannedModel(few / "0", window_.camera, {t[0], t[1], t[2]});
-  WriteCannedModel(all / "0", window_.camera, {t[0], t[1], t[2], t[3], t[4]});
-  options_.colmap_path = FakeColmap("if [ $cmd = mapper ]; then case \"$out\" in *sparse_all) cp -r " +
-                                    all.string() + "/* $out/;; *) cp -r " + few.string() + "/* $out/;; esac; fi");
+  options_.colmap_path = MapperFewOrAll("sparse_all");
   BackResult r = BackSubmapBuilder(options_).Build(window_);
   ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
   EXPECT_TRUE(r.filled);
