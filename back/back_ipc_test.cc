@@ -256,8 +256,10 @@ TEST_F(BackIpcTest, SigtermCancelsRunningColmapAndSaysSo) {
   ASSERT_GT(sleeper, 0);
   EXPECT_FALSE(ProcessGone(sleeper));
   // While COLMAP runs, the receiver keeps the ring empty: windows 4..6 are
-  // taken off it and the queue of one keeps only the newest (2 dropped).
-  for (int64_t id = 4; id <= 6; ++id) ASSERT_EQ(tx.Send(MakeWindow(id, id * 1000000000LL)), PushStatus::kOk);
+  // taken off it; 5 (1 s after 4) joins 4, and 6 (95 s later) makes the
+  // queue of one drop 4 with the 5 it had joined (2 dropped).
+  for (int64_t id : {4, 5, 100})
+    ASSERT_EQ(tx.Send(MakeWindow(id == 100 ? 6 : id, id * 1000000000LL)), PushStatus::kOk);
   while (tx.ring().Stats().tail != 4 && Since(t0) < 15) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   ASSERT_EQ(tx.ring().Stats().tail, 4u) << Log();
 
@@ -276,6 +278,7 @@ TEST_F(BackIpcTest, SigtermCancelsRunningColmapAndSaysSo) {
   const nlohmann::json j = Stats();
   EXPECT_EQ(j["windows_received"], 4);
   EXPECT_EQ(j["windows_dropped"], 2);
+  EXPECT_EQ(j["windows_joined"], 1);
   EXPECT_EQ(j["windows"], 1);
   EXPECT_EQ(j["windows_cancelled"], 1);
   EXPECT_EQ(j["windows_done"], 0);
@@ -308,6 +311,14 @@ TEST_F(BackIpcTest, KilledBackRetriesItsWindowOnceThenDropsIt) {
   while (!fs::exists(dir_ / "sleep.pid") && Since(t0) < 15) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   ASSERT_TRUE(fs::exists(dir_ / "sleep.pid")) << Log();
   EXPECT_TRUE(fs::exists(dir_ / "work" / "spool" / "3.rwin"));
+  // Windows 4 and 5 (1 s apart) wait; 5 joins 4, and both stay on disk
+  // until the joined window is built.
+  for (int64_t id = 4; id <= 5; ++id) ASSERT_EQ(tx.Send(MakeWindow(id, id * 1000000000LL)), PushStatus::kOk);
+  while (Log().find("window 5 (4 frames) joins waiting window 4") == std::string::npos && Since(t0) < 15)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_NE(Log().find("window 5 (4 frames) joins waiting window 4"), std::string::npos) << Log();
+  EXPECT_TRUE(fs::exists(dir_ / "work" / "spool" / "4.rwin"));
+  EXPECT_TRUE(fs::exists(dir_ / "work" / "spool" / "5.rwin"));
   pid_t sleeper = 0;
   std::ifstream(dir_ / "sleep.pid") >> sleeper;
   ::kill(pid_, SIGKILL);  // mid-COLMAP
@@ -319,10 +330,11 @@ TEST_F(BackIpcTest, KilledBackRetriesItsWindowOnceThenDropsIt) {
   for (const auto& e : fs::directory_iterator(dir_ / "ws")) workspaces += e.is_directory();
   EXPECT_EQ(workspaces, 1);  // left by the killed back
 
-  run_until_colmap(2);  // the restart takes window 3 from the spool
+  run_until_colmap(2);  // the restart takes window 3 from the spool, and 4 and 5 join again
   EXPECT_NE(Log().find("window 3 (4 frames) from the spool: rumi-back died while building it; retrying it once"),
             std::string::npos)
       << Log();
+  EXPECT_NE(Log().find("window 5 (4 frames) joins waiting window 4"), std::string::npos) << Log();
   EXPECT_NE(Log().find("removed the workspace"), std::string::npos) << Log();
   ::kill(pid_, SIGKILL);
   Wait(5);

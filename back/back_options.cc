@@ -33,6 +33,10 @@ const OptionSpec<BackOptions>& BackOptions::Spec() {
               "ORB keypoints added to each back keyframe (0: off, else >= 50)");
     s->Number("max_queue_windows", &O::max_queue_windows, AtLeast(1), AtMost(1000),
               "windows waiting; the oldest is dropped beyond it");
+    s->Number("merge_gap_s", &O::merge_gap_s, AtLeast(-1.0), AtMost(3600.0),
+              "a window starting this close to the end of the last waiting one joins it; < 0: never");
+    s->Number("merge_max_frames", &O::merge_max_frames, AtLeast(1), AtMost(100000),
+              "no join that would make a window of more frames than this");
     s->Flag("low_priority", &O::low_priority, "SCHED_IDLE (or nice 19) for rumi-back and COLMAP");
     s->Number("wait_for_producer_s", &O::wait_for_producer_s, AtLeast(0.0), AtMost(86400.0),
               "no window producer after this long: done (0: wait forever)");

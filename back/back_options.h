@@ -43,6 +43,11 @@ struct BackOptions {
   // keyframes only repeat what the front mapped. 0 = off.
   int orb_features = 1000;
   int max_queue_windows = 2;           // windows waiting; the oldest is dropped beyond it
+  // A window that starts within merge_gap_s of the end of the last waiting
+  // one joins it (one COLMAP run for two close losses, and no drop), unless
+  // the joined window would hold more than merge_max_frames. < 0: never.
+  double merge_gap_s = 3.0;
+  int merge_max_frames = 300;
   // The run loop (rumi-back with channels): a window producer not seen after
   // wait_for_producer_s counts as never appeared (0: wait forever); at the
   // end, wait up to wait_for_consumer_s for the manager to read every back

@@ -36,6 +36,8 @@ struct WindowRecord {
   std::string message;
   int frames = 0, registered = 0;
   int attempt = 1;                           // 2: retried after the back died on it
+  std::vector<int64_t> joined;               // windows merged into it while it waited
+  Timestamp started = 0, finished = 0;       // system clock: the build
   bool retried = false, retry_kept = false;  // lower SIFT threshold tried / kept
   int matched_pairs = 0;                     // image pairs per attempt
   bool filled = false, fill_kept = false;    // the remaining pairs matched / kept
@@ -66,7 +68,8 @@ struct Counters {
   std::vector<WindowRecord> windows;
 };
 
-nlohmann::ordered_json StatsJson(const Counters& c, Shared& sh, uint64_t dropped, bool stopped) {
+nlohmann::ordered_json StatsJson(const Counters& c, Shared& sh, const WindowQueue& queue, bool stopped) {
+  const uint64_t dropped = queue.dropped();
   using json = nlohmann::ordered_json;
   uint64_t done = 0, failed = 0, cancelled = 0;
   json per = json::array();
@@ -81,6 +84,9 @@ nlohmann::ordered_json StatsJson(const Counters& c, Shared& sh, uint64_t dropped
                    {"frames", w.frames},
                    {"registered", w.registered},
                    {"attempt", w.attempt},
+                   {"joined_windows", w.joined},
+                   {"started_wall_s", NsToSeconds(w.started)},
+                   {"finished_wall_s", NsToSeconds(w.finished)},
                    {"retried", w.retried},
                    {"retry_kept", w.retry_kept},
                    {"matched_pairs", w.matched_pairs},
@@ -100,6 +106,8 @@ nlohmann::ordered_json StatsJson(const Counters& c, Shared& sh, uint64_t dropped
                      {"matching", t.matching_cpu_s},
                      {"mapping", t.mapping_cpu_s}}}});
   }
+  json history = json::array();  // [wall_s, waiting windows] after each change
+  for (const auto& [t, n] : queue.History()) history.push_back({NsToSeconds(t), n});
   std::lock_guard<std::mutex> l(sh.mutex);
   return {{"windows", c.windows.size()},  // processed (docs/eval.md contract)
           {"seconds", c.seconds},
@@ -108,12 +116,14 @@ nlohmann::ordered_json StatsJson(const Counters& c, Shared& sh, uint64_t dropped
           {"windows_failed", failed},
           {"windows_cancelled", cancelled},
           {"windows_dropped", dropped + sh.spool_dropped},
+          {"windows_joined", queue.merged()},
           {"windows_undecodable", sh.decode_errors},
           {"submaps_sent", c.submaps_sent},
           {"submaps_dropped", c.submaps_dropped},
           {"producer", ToString(sh.producer_end)},
           {"stopped_by_signal", stopped},
-          {"per_window", per}};
+          {"per_window", per},
+          {"queue_history", history}};
 }
 
 bool WriteStats(const std::string& work_dir, const nlohmann::ordered_json& j) {
@@ -195,6 +205,25 @@ class Spool {
   std::string dir_;
 };
 
+// Queues a window (spooled already under its id). A window that joins a
+// waiting one keeps its spool file until that one is built: after a crash
+// both load and join again.
+void Enqueue(ImageWindow w, WindowQueue* queue, const Spool& spool, const BackOptions& o, bool retry = false) {
+  const int64_t id = w.id;
+  const size_t frames = w.frames.size();
+  const WindowQueue::PushResult r = queue->Push(std::move(w), /*sealed=*/retry);
+  for (int64_t d : r.dropped) spool.Remove(d);
+  if (!r.dropped.empty())
+    spdlog::warn("back: queue full ({} windows): dropped the oldest waiting window{} ({} dropped so far)",
+                 o.max_queue_windows, r.dropped.size() > 1 ? " and the windows it had joined" : "", queue->dropped());
+  if (r.merged_into >= 0) {
+    spdlog::info("back: window {} ({} frames) joins waiting window {} (it starts within {} s of its end), {} waiting",
+                 id, frames, r.merged_into, o.merge_gap_s, queue->size());
+  } else {
+    spdlog::info("back: window {} ({} frames) queued, {} waiting", id, frames, queue->size());
+  }
+}
+
 // Whether the window stream is over: its producer closed its channel (and,
 // under rumid, the source ended), died (`rumi eval run` only), or never came.
 bool StreamOver(const BackRunOptions& o, ProducerEnd end) {
@@ -231,19 +260,11 @@ void ReceiveLoop(const BackRunOptions& o, WindowReceiver* rx, SubmapSender* tx, 
       std::string why;
       if (!spool->Put(w, &why)) spdlog::error("back: cannot spool window {}: {}", w.id, why);
       if (spool->enabled()) rx->Release();  // on disk now
-      const size_t frames = w.frames.size();
-      const int64_t id = w.id;
-      std::vector<int64_t> dropped;
       {
         std::lock_guard<std::mutex> l(sh->mutex);
         ++sh->received;
       }
-      if (!queue->Push(std::move(w), &dropped)) {
-        for (int64_t d : dropped) spool->Remove(d);
-        spdlog::warn("back: queue full ({} windows): dropped the oldest waiting window ({} dropped so far)",
-                     o.back.max_queue_windows, queue->dropped());
-      }
-      spdlog::info("back: received window {} ({} frames), {} waiting", id, frames, queue->size());
+      Enqueue(std::move(w), queue, *spool, o.back);
       continue;
     }
     if (StreamOver(o, watch.end())) break;
@@ -293,7 +314,7 @@ void ReportLoop(Shared* sh, const WindowQueue* queue, const std::atomic<bool>* d
       std::lock_guard<std::mutex> l(sh->mutex);
       j = {{"process", "back"},     {"received", sh->received}, {"queue", queue->size()},
            {"built", sh->built},    {"failed", sh->failed},     {"dropped", queue->dropped() + sh->spool_dropped},
-           {"producer", ToString(sh->producer_end)}};
+           {"joined", queue->merged()}, {"producer", ToString(sh->producer_end)}};
       if (sh->building >= 0) {
         j["building"] = {{"window", sh->building},
                          {"frames", sh->building_frames},
@@ -335,7 +356,7 @@ int RunBack(const BackRunOptions& o, const std::atomic<bool>* stop) {
   ReclaimStaleWorkspaces(o.back.WorkspaceRoot());
   Counters c;
   Shared sh;
-  WindowQueue queue(static_cast<size_t>(o.back.max_queue_windows));
+  WindowQueue queue({static_cast<size_t>(o.back.max_queue_windows), o.back.merge_gap_s, o.back.merge_max_frames});
   const Spool spool(o.spool ? (fs::path(o.work_dir) / "spool").string() : "");
   std::unique_ptr<WindowReceiver> rx;
   std::unique_ptr<SubmapSender> tx;
@@ -344,7 +365,7 @@ int RunBack(const BackRunOptions& o, const std::atomic<bool>* stop) {
     tx = std::make_unique<SubmapSender>(o.ipc, SubmapSource::kBack);
   } catch (const std::exception& e) {  // IpcError: another live producer, foreign layout
     spdlog::error("back: {}", e.what());
-    WriteStats(o.work_dir, StatsJson(c, sh, 0, false));
+    WriteStats(o.work_dir, StatsJson(c, sh, queue, false));
     return kExitError;
   }
   if (o.keep_segments) tx->ring().KeepSegmentOnClose();
@@ -363,13 +384,11 @@ int RunBack(const BackRunOptions& o, const std::atomic<bool>* stop) {
     spdlog::info("back: window {} ({} frames) from the spool{}", w.id, w.frames.size(),
                  a == 1 ? ": rumi-back died while building it; retrying it once" : "");
     attempts[w.id] = a;
-    std::vector<int64_t> dropped;
-    queue.Push(std::move(w), &dropped);
-    for (int64_t d : dropped) spool.Remove(d);
+    Enqueue(std::move(w), &queue, spool, o.back, /*retry=*/a == 1);
   }
   spdlog::info("back: instance {}: windows from {}, submaps to {}, queue {} windows{}", o.ipc.instance,
                rx->ring().name(), tx->ring().name(), o.back.max_queue_windows, spool.enabled() ? ", spooled" : "");
-  if (!WriteStats(o.work_dir, StatsJson(c, sh, 0, false))) return kExitError;
+  if (!WriteStats(o.work_dir, StatsJson(c, sh, queue, false))) return kExitError;
   Notifier notifier;
   notifier.Ready();
 
@@ -388,7 +407,8 @@ int RunBack(const BackRunOptions& o, const std::atomic<bool>* stop) {
       break;
     }
     ImageWindow w;
-    if (!queue.Pop(&w, std::chrono::milliseconds(100))) {
+    std::vector<int64_t> joined;
+    if (!queue.Pop(&w, std::chrono::milliseconds(100), &joined)) {
       std::lock_guard<std::mutex> l(sh.mutex);
       if (sh.receiver_done && queue.size() == 0) break;
       continue;
@@ -404,14 +424,18 @@ int RunBack(const BackRunOptions& o, const std::atomic<bool>* stop) {
     // Under rumid a window's back submaps are numbered from its id: a window
     // built again after a restart replaces its earlier submaps in the map.
     if (spool.enabled()) builder.set_next_submap_id(w.id * kSubmapsPerWindow);
+    const Timestamp started = WallNowNs();
     const BackResult r = builder.Build(w, &sh.abort);
     WindowRecord rec;
+    rec.started = started;
+    rec.finished = WallNowNs();
     rec.window_id = w.id;
     rec.status = r.status;
     rec.message = r.message;
     rec.frames = r.num_frames;
     rec.registered = r.num_registered;
     rec.attempt = attempt;
+    rec.joined = joined;
     rec.retried = r.retried;
     rec.retry_kept = r.retry_kept;
     rec.matched_pairs = r.matched_pairs;
@@ -446,6 +470,7 @@ int RunBack(const BackRunOptions& o, const std::atomic<bool>* stop) {
         spdlog::warn("back: window {}: not every submap reached the manager; kept in the spool", w.id);
     } else {
       spool.Remove(w.id);
+      for (int64_t j : joined) spool.Remove(j);
     }
     {
       std::lock_guard<std::mutex> l(sh.mutex);
@@ -453,7 +478,7 @@ int RunBack(const BackRunOptions& o, const std::atomic<bool>* stop) {
       (r.ok() ? sh.built : sh.failed)++;
     }
     c.windows.push_back(std::move(rec));
-    stats_ok &= WriteStats(o.work_dir, StatsJson(c, sh, queue.dropped(), false));
+    stats_ok &= WriteStats(o.work_dir, StatsJson(c, sh, queue, false));
     if (interrupted) break;
   }
   sh.abort.store(true);  // the receiver too, if the worker ended first
@@ -476,7 +501,7 @@ int RunBack(const BackRunOptions& o, const std::atomic<bool>* stop) {
   reporting_done.store(true);
   reporter.join();
   notifier.Stopping();
-  const nlohmann::ordered_json j = StatsJson(c, sh, queue.dropped(), by_signal);
+  const nlohmann::ordered_json j = StatsJson(c, sh, queue, by_signal);
   stats_ok &= WriteStats(o.work_dir, j);
   spdlog::info("back: {} windows received, {} built ({} ok, {} failed, {} dropped), {} submaps sent, {:.1f} s",
                j["windows_received"].get<uint64_t>(), j["windows"].get<uint64_t>(), j["windows_done"].get<uint64_t>(),

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <limits>
 #include <chrono>
 #include <cctype>
 #include <cmath>
@@ -385,6 +386,28 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
   Attempt at = run_attempt(options_.sift_peak_threshold, "");
   if (at.status != BackStatus::kOk) return finish(at.status, at.message);
   const int frames = static_cast<int>(window.frames.size());
+  // Whether a part of the window misses too many frames: the model holding
+  // most of that part's frames holds less than retry_below_registered of
+  // them. A window the queue joined from several (window.joined_at) has one
+  // part per window, as each loss gives COLMAP its own model; otherwise the
+  // window is one part and this is its largest model.
+  const auto short_of_frames = [&](const Attempt& a) {
+    std::vector<Timestamp> bounds = window.joined_at;
+    bounds.push_back(std::numeric_limits<Timestamp>::max());
+    Timestamp from = std::numeric_limits<Timestamp>::min();
+    for (const Timestamp to : bounds) {
+      int n = 0, best = 0;
+      for (const WindowFrame& f : window.frames) n += f.timestamp >= from && f.timestamp < to;
+      for (const Built& b : a.built) {
+        int in = 0;
+        for (const Keyframe& k : b.submap.keyframes) in += k.timestamp >= from && k.timestamp < to;
+        best = std::max(best, in);
+      }
+      if (n > 0 && best < options_.retry_below_registered * n) return true;
+      from = to;
+    }
+    return false;
+  };
   // A further attempt replaces `at` when its largest model is larger.
   auto adopt_if_larger = [&](Attempt next, const std::string& failed, const std::string& before, bool* kept) {
     if (next.status != BackStatus::kOk) {
@@ -398,8 +421,7 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
   // Selected pairs that leave frames out: first the pairs left out, on the
   // same features (a 53-frame blur window: 48 frames with pairs + retry,
   // 50 with every pair at the first threshold).
-  if (options_.matcher == "pairs" && options_.retry_below_registered > 0 &&
-      at.largest() < options_.retry_below_registered * frames) {
+  if (options_.matcher == "pairs" && options_.retry_below_registered > 0 && short_of_frames(at)) {
     spdlog::info("window {}: {}/{} frames in the largest model; matching the remaining image pairs", window.id,
                  at.largest(), frames);
     Attempt all = run_attempt(options_.sift_peak_threshold, "", true);
@@ -411,7 +433,7 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
   // the usual threshold: when the largest model misses too many frames, the
   // whole window is tried again with a lower one and the larger model kept.
   if (options_.retry_peak_threshold > 0 && options_.retry_peak_threshold != options_.sift_peak_threshold &&
-      at.largest() < options_.retry_below_registered * frames) {
+      short_of_frames(at)) {
     spdlog::info("window {}: {}/{} frames in the largest model; retrying with SIFT peak threshold {}", window.id,
                  at.largest(), frames, options_.retry_peak_threshold);
     Attempt retry = run_attempt(options_.retry_peak_threshold, "_retry");

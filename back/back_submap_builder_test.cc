@@ -295,6 +295,37 @@ TEST_F(BackSubmapBuilderTest, SelectedPairsFallingShortAreFilledBeforeTheRetry) 
   EXPECT_TRUE(r.retried);
 }
 
+// A window the queue joined from two: one model per part is what COLMAP
+// should give, so each part is judged on its own and nothing is matched again
+// (in a stress run a joined 151-frame window spent minutes in the fill).
+TEST_F(BackSubmapBuilderTest, AJoinedWindowIsJudgedPartByPart) {
+  std::vector<Timestamp> t;
+  for (const auto& f : window_.frames) t.push_back(f.timestamp);
+  const fs::path two = root_ / "two";
+  WriteCannedModel(two / "0", window_.camera, {t[0], t[1], t[2]});
+  WriteCannedModel(two / "1", window_.camera, {t[3], t[4]});
+  options_.colmap_path = FakeColmap("if [ $cmd = mapper ]; then cp -r " + two.string() + "/* $out/; fi");
+  options_.min_registered_images = 2;
+  window_.joined_at = {t[3]};  // parts t0-t2 and t3-t4
+  BackResult r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  EXPECT_FALSE(r.filled);
+  EXPECT_FALSE(r.retried);
+  EXPECT_EQ(r.submaps.size(), 2u);
+  EXPECT_EQ(Args().find("exhaustive_matcher"), std::string::npos);
+  // One window: 3 of 5 frames in its largest model, so the rest is matched.
+  fs::remove(root_ / "args.txt");
+  window_.joined_at.clear();
+  r = BackSubmapBuilder(options_).Build(window_);
+  EXPECT_TRUE(r.filled);
+  EXPECT_TRUE(r.retried);
+  // A part that misses frames still gets them: the joined window t0-t1 | t2-t4.
+  fs::remove(root_ / "args.txt");
+  window_.joined_at = {t[2]};
+  r = BackSubmapBuilder(options_).Build(window_);
+  EXPECT_TRUE(r.filled);
+}
+
 // The retry is kept only when it is larger; a failing retry leaves the first.
 TEST_F(BackSubmapBuilderTest, FailedOrSmallerRetryKeepsTheFirstModel) {
   std::vector<Timestamp> t;

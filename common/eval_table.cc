@@ -2,10 +2,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <functional>
 #include <stdexcept>
+
+#include "common/run_metrics.h"
 
 namespace rumi {
 namespace {
@@ -95,6 +98,26 @@ std::string MergeCell(const TableRow& row) {
   return std::to_string(acc) + " / " + std::to_string(rej) + " / " + std::to_string(harm);
 }
 
+// "p50 / p95 / max (merged of losses)" in seconds over the losses of every
+// run; "-" when a run has no loss-to-merge times.
+std::string LossToMergeCell(const TableRow& row) {
+  std::vector<double> v;
+  size_t losses = 0;
+  for (const auto& r : row.runs) {
+    if (!r.loss_to_merge_s) return "-";
+    losses += r.loss_to_merge_s->size();
+    for (const auto& s : *r.loss_to_merge_s)
+      if (s) v.push_back(*s);
+  }
+  if (losses == 0) return "no loss";
+  const std::string counts = " (" + std::to_string(v.size()) + " of " + std::to_string(losses) + ")";
+  if (v.empty()) return "-" + counts;
+  char buf[96];
+  std::snprintf(buf, sizeof(buf), "%.0f / %.0f / %.0f", *Median(v), *PercentileNearestRank(v, 95),
+                *std::max_element(v.begin(), v.end()));
+  return buf + counts;
+}
+
 }  // namespace
 
 bool EvalTableOptions::Check(std::string* why) const {
@@ -129,6 +152,17 @@ RunMetrics ParseRunMetrics(const std::string& json_text, const std::string& sour
   m.merges = j.contains("merges") ? Number(j, "merges", source) : 0;
   if (j.contains("merges_rejected")) m.merges_rejected = int(Number(j, "merges_rejected", source));
   if (j.contains("merges_harmful")) m.merges_harmful = int(Number(j, "merges_harmful", source));
+  if (j.contains("loss_to_merge")) {
+    const auto& a = j["loss_to_merge"];
+    if (!a.is_array()) throw std::runtime_error(source + ": key 'loss_to_merge' is not an array");
+    m.loss_to_merge_s.emplace();
+    for (const auto& l : a) {
+      if (!l.is_object() || !l.contains("seconds") || !(l["seconds"].is_null() || l["seconds"].is_number()))
+        throw std::runtime_error(source + ": loss_to_merge: each entry needs 'seconds' (a number or null)");
+      m.loss_to_merge_s->push_back(l["seconds"].is_null() ? std::nullopt
+                                                          : std::optional<double>(l["seconds"].get<double>()));
+    }
+  }
   if (j.contains("warnings") && j["warnings"].is_array())
     for (const auto& w : j["warnings"])
       if (w.is_string()) m.warnings.push_back(w.get<std::string>());
@@ -142,15 +176,15 @@ std::string FormatEvalTableMarkdown(const std::vector<TableRow>& rows, const Eva
     out += " " + m.first + " Rate (%) | " + m.first + " RMSE | " + m.first + " Frames |";
     sep += "---:|---:|---:|";
   }
-  out += " Merges acc / rej / harmful |";
-  sep += "---:|";
+  out += " Merges acc / rej / harmful | Loss to merge s p50 / p95 / max |";
+  sep += "---:|---:|";
   out += "\n" + sep + "\n";
   for (const auto& row : rows) {
     out += "| " + row.sequence + " |";
     for (const auto& m : Methods()) {
       for (const auto& c : Cells(row, m.second, o)) out += " " + c + " |";
     }
-    out += " " + MergeCell(row) + " |\n";
+    out += " " + MergeCell(row) + " | " + LossToMergeCell(row) + " |\n";
   }
   for (const auto& row : rows) {
     for (size_t k = 0; k < row.runs.size(); ++k)
@@ -166,13 +200,13 @@ std::string FormatEvalTableCsv(const std::vector<TableRow>& rows, const EvalTabl
   for (const char* m : {"po", "rumi", "front"}) {
     out += std::string(",") + m + "_rate," + m + "_rmse," + m + "_frames";
   }
-  out += ",merges\n";
+  out += ",merges,loss_to_merge\n";
   for (const auto& row : rows) {
     out += row.sequence + "," + std::to_string(row.runs.size());
     for (const auto& m : Methods()) {
       for (const auto& c : Cells(row, m.second, o)) out += ",\"" + c + "\"";
     }
-    out += ",\"" + MergeCell(row) + "\"\n";
+    out += ",\"" + MergeCell(row) + "\",\"" + LossToMergeCell(row) + "\"\n";
   }
   return out;
 }

@@ -20,6 +20,9 @@ struct RunMetrics {
   // accepted merges that made the map worse (absent without an audit).
   double merges = 0;
   std::optional<int> merges_rejected, merges_harmful;
+  // Per loss, seconds from the loss to its merge (null: never merged);
+  // absent when the run has no loss-to-merge times.
+  std::optional<std::vector<std::optional<double>>> loss_to_merge_s;
 };
 
 // Parses metrics.json text; throws std::runtime_error naming `source` and the
@@ -37,9 +40,10 @@ struct EvalTableOptions {
   bool Check(std::string* why = nullptr) const;
 };
 
-// The table (the last column: merges accepted / rejected / harmful, summed
-// over the runs, "-" without an audit), then one line per run that has
-// warnings.
+// The table (then: merges accepted / rejected / harmful, summed over the
+// runs, "-" without an audit; loss to merge p50 / p95 / max in seconds over
+// the losses of all runs, with how many of them merged), then one line per
+// run that has warnings.
 std::string FormatEvalTableMarkdown(const std::vector<TableRow>& rows,
                                     const EvalTableOptions& options = {});
 std::string FormatEvalTableCsv(const std::vector<TableRow>& rows,

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <sstream>
+
 namespace rumi {
 namespace {
 
@@ -67,11 +69,33 @@ TEST(EvalTable, MergeAuditColumnSumsRunsAndShowsDashWithoutAudit) {
   ASSERT_TRUE(a.merges_harmful.has_value());
   EXPECT_EQ(*a.merges_rejected, 1);
   TableRow row{"blur", {a, ParseRunMetrics(with_audit(3, 0, 1), "b")}};
-  EXPECT_NE(FormatEvalTableMarkdown({row}).find("| 5 / 1 / 1 |\n"), std::string::npos) << FormatEvalTableMarkdown({row});
-  EXPECT_NE(FormatEvalTableCsv({row}).find(",\"5 / 1 / 1\"\n"), std::string::npos);
+  EXPECT_NE(FormatEvalTableMarkdown({row}).find("| 5 / 1 / 1 | - |\n"), std::string::npos) << FormatEvalTableMarkdown({row});
+  EXPECT_NE(FormatEvalTableCsv({row}).find(",\"5 / 1 / 1\",\"-\"\n"), std::string::npos);
   // One run without an audit (an older metrics.json): no sum that hides it.
   row.runs.push_back(ParseRunMetrics(Metrics(0.5, "0.01", 1.0, "0.01", 10, 5), "c"));
-  EXPECT_NE(FormatEvalTableMarkdown({row}).find("| - |\n"), std::string::npos);
+  EXPECT_NE(FormatEvalTableMarkdown({row}).find("| - | - |\n"), std::string::npos);
+}
+
+TEST(EvalTable, LossToMergeColumnPoolsTheLossesOfAllRuns) {
+  auto with_losses = [](const std::string& seconds) {
+    std::string m = Metrics(0.5, "0.01", 1.0, "0.01", 10, 5);
+    m.pop_back();
+    std::string a = "[";
+    std::stringstream in(seconds);
+    for (std::string s; in >> s;) a += (a.size() > 1 ? "," : "") + std::string("{\"seconds\":") + s + "}";
+    return m + ",\"loss_to_merge\":" + a + "]}";
+  };
+  // 1, 2, 3, 4, 100 merged, one never: median 3, nearest-rank p95 100, max 100.
+  TableRow row{"drop", {ParseRunMetrics(with_losses("4 null 1"), "a"), ParseRunMetrics(with_losses("2 100 3"), "b")}};
+  ASSERT_TRUE(row.runs[0].loss_to_merge_s.has_value());
+  EXPECT_FALSE((*row.runs[0].loss_to_merge_s)[1].has_value());
+  EXPECT_NE(FormatEvalTableMarkdown({row}).find("| 3 / 100 / 100 (5 of 6) |\n"), std::string::npos)
+      << FormatEvalTableMarkdown({row});
+  EXPECT_NE(FormatEvalTableMarkdown({{"s", {ParseRunMetrics(with_losses(""), "c")}}}).find("| no loss |\n"),
+            std::string::npos);
+  EXPECT_NE(FormatEvalTableMarkdown({{"s", {ParseRunMetrics(with_losses("null"), "d")}}}).find("| - (0 of 1) |\n"),
+            std::string::npos);
+  EXPECT_THROW(ParseRunMetrics(with_losses("\"x\""), "e"), std::runtime_error);
 }
 
 }  // namespace

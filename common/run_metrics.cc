@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/atomic_file.h"
+#include "common/loss_to_merge.h"
 #include "common/window.h"
 
 namespace rumi {
@@ -239,6 +240,24 @@ std::string FormatRunMetricsJson(const RunMetricsReport& r) {
     j["merges_harmful"] = harmful;
     j["merges_rejected_harmful"] = rejected_harmful;
   }
+  if (r.loss_to_merge) {
+    const LossToMergeSummary sum = SummarizeLossToMerge(*r.loss_to_merge);
+    nlohmann::ordered_json per = nlohmann::ordered_json::array();
+    for (const LossToMerge& l : *r.loss_to_merge)
+      per.push_back({{"first", FormatSeconds(l.first)},
+                     {"last", FormatSeconds(l.last)},
+                     {"frames", l.frames},
+                     {"seconds", OrNull(l.seconds)},
+                     {"back_submap", l.back_submap}});
+    j["losses"] = sum.losses;
+    j["losses_merged"] = sum.merged;
+    j["loss_to_merge_p50_s"] = OrNull(sum.p50_s);
+    j["loss_to_merge_p95_s"] = OrNull(sum.p95_s);
+    j["loss_to_merge_max_s"] = OrNull(sum.max_s);
+    j["loss_to_merge"] = per;
+  } else {
+    j["losses"] = nullptr;
+  }
   j["warnings"] = r.warnings;
   return j.dump(2) + "\n";
 }
@@ -288,6 +307,11 @@ std::vector<FrontFrameLine> ParseFrontFrames(std::istream& in, const std::string
     if (f.size() >= 6) {
       if (f[5] != "0" && f[5] != "1") fail("skipped column must be 0 or 1, got '" + f[5] + "'");
       r.skipped = f[5] == "1";
+    }
+    if (f.size() >= 7) {
+      Timestamp wall = 0;
+      if (!ParseSecondsToNs(f[6], &wall)) fail("bad wall-clock time '" + f[6] + "'");
+      r.wall = wall;
     }
     if (!out.empty() && r.t <= out.back().t) fail("timestamps not strictly increasing");
     out.push_back(r);

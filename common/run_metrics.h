@@ -69,6 +69,21 @@ struct MergeAuditRow {
   std::string note;      // why the figures are missing, if they are
 };
 
+// One tracking loss and how long its frames took to be part of the map
+// (common/loss_to_merge.h computes it).
+struct LossToMerge {
+  Timestamp first = 0, last = 0;  // the lost stretch: first and last frame the front did not track
+  int frames = 0;                 // frames in it (skipped ones included)
+  Timestamp lost_wall = 0;        // when the front was done with its first frame (system clock)
+  std::optional<double> seconds;  // loss to merge; null: never merged
+  int64_t back_submap = -1;       // the back submap whose join merged it
+};
+// Over the merged losses: median, nearest-rank p95, max.
+struct LossToMergeSummary {
+  int losses = 0, merged = 0;
+  std::optional<double> p50_s, p95_s, max_s;
+};
+
 struct RunMetricsReport {
   std::string sequence;
   size_t frames = 0;
@@ -88,6 +103,9 @@ struct RunMetricsReport {
   // attempts that got a Sim(3)) and of harmful accepted merges.
   std::vector<MergeAuditRow> merge_audit;
   bool merge_audit_done = false;
+  // Every loss after the first tracked frame, with its loss-to-merge time;
+  // not computed (null in metrics.json) without the back or the wall times.
+  std::optional<std::vector<LossToMerge>> loss_to_merge;
   // What makes the figures suspect (nothing tracked, failed back windows):
   // metrics.json "warnings", printed by `rumi eval run` and `rumi eval table`.
   std::vector<std::string> warnings;
@@ -118,13 +136,14 @@ struct FrontFrameLine {
   int64_t submap_id = -1;
   std::optional<double> ms;  // per-frame time, when the 4th column is given
   bool skipped = false;      // 6th column 1: the replay dropped it (front too slow), never tracked
+  std::optional<Timestamp> wall;  // 7th column: when the front was done with it (system clock)
 };
 struct FrontSampleLine {
   Timestamp t = 0;
   int set = 0;  // 1, 2, 3 for S1, S2, S3
   int64_t window_id = -1;
 };
-// front_frames.txt: "t_seconds state submap_id [ms [more columns...]]", state
+// front_frames.txt: "t_seconds state submap_id [ms [cpu_ms skipped [wall_s [more...]]]]", state
 // as a name (tracking, lost, initializing, coarse) or its number 0..3.
 // front_samples.txt: "t_seconds set window_id", set as 1..3 or S1..S3.
 // '#' lines and blank lines are skipped; throws naming file:line otherwise.

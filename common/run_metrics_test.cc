@@ -163,6 +163,8 @@ TEST(RunMetrics, JsonHasEveryKeyAndParsesInEvalTable) {
   EXPECT_EQ(m.po_frames, 120);
   EXPECT_EQ(m.front_frames, 90);
   ASSERT_TRUE(m.merged_rmse.has_value());
+  EXPECT_TRUE(j["losses"].is_null());  // not computed: no loss-to-merge key
+  EXPECT_FALSE(m.loss_to_merge_s.has_value());
 }
 
 // Over the frames the front tracked (aligned on them alone, as the issue's
@@ -241,6 +243,8 @@ TEST(RunMetrics, ParsesFrontFramesAndSamples) {
   EXPECT_EQ(f[1].state, TrackingState::kTracking);
   EXPECT_EQ(f[1].submap_id, 0);
   EXPECT_DOUBLE_EQ(*f[1].ms, 12.25);
+  EXPECT_EQ(f[1].wall, Timestamp{9'000'000'000});  // 7th column: wall_s
+  EXPECT_FALSE(f[0].wall.has_value());
   EXPECT_EQ(f[2].state, TrackingState::kLost);
   EXPECT_FALSE(f[2].ms.has_value());
 
@@ -264,6 +268,8 @@ TEST(RunMetrics, BadRunFilesNameFileAndLine) {
   }
   std::istringstream bad_skip("1.0 lost -1 0 0 yes\n");
   EXPECT_THROW(ParseFrontFrames(bad_skip, "f"), std::runtime_error);
+  std::istringstream bad_wall("1.0 lost -1 0 0 0 noon\n");
+  EXPECT_THROW(ParseFrontFrames(bad_wall, "f"), std::runtime_error);
   std::istringstream unsorted("2.0 tracking 0\n1.0 tracking 0\n");
   EXPECT_THROW(ParseFrontFrames(unsorted, "f"), std::runtime_error);
   std::istringstream bad_set("1.0 4 0\n");

@@ -36,6 +36,10 @@ struct ImageWindow {
   int64_t id = -1;
   PinholeCameraOptions camera;
   std::vector<WindowFrame> frames;  // time order
+  // Inside rumi-back only (not encoded): the first frame time of each window
+  // its queue joined into this one, so the builder judges each part's
+  // coverage on its own (back/window_queue.h).
+  std::vector<Timestamp> joined_at;
 };
 
 }  // namespace rumi

@@ -205,7 +205,7 @@ void FrontPublisher::OnFrame(const FrameRecord& rec, const cv::Mat& image, doubl
   if (sampler_.AddFrame(sf, &w)) EnqueueWindow(std::move(w));
   TakeFinished(finished);
   staged_lines_.push_back({rec.timestamp, rec.state, rec.submap_id, static_cast<float>(ms),
-                           static_cast<float>(cpu_ms), false});
+                           static_cast<float>(cpu_ms), false, WallNowNs()});
   ++t_stats_.frames;
 
   // Resend of the current submap: the snapshot must be taken here (the
@@ -244,7 +244,7 @@ void FrontPublisher::OnFrame(const FrameRecord& rec, const cv::Mat& image, doubl
 
 void FrontPublisher::OnSkipped(Timestamp t) {
   if (t <= logged_until_) return;  // an earlier front (before a restart) logged it
-  staged_lines_.push_back({t, TrackingState::kLost, -1, 0.f, 0.f, true});
+  staged_lines_.push_back({t, TrackingState::kLost, -1, 0.f, 0.f, true, WallNowNs()});
   ++t_stats_.frames;
   ++t_stats_.skipped_frames;
   Handoff(false);
@@ -304,7 +304,7 @@ void FrontPublisher::WriteLines(std::vector<FrameLine>* frames, std::vector<Samp
   if (frames_file_.is_open() && !frames->empty()) {
     for (const FrameLine& f : *frames)
       frames_file_ << FormatSeconds(f.t) << ' ' << ToString(f.state) << ' ' << f.submap_id << ' ' << f.ms << ' '
-                   << f.cpu_ms << ' ' << (f.skipped ? 1 : 0) << '\n';
+                   << f.cpu_ms << ' ' << (f.skipped ? 1 : 0) << ' ' << FormatSeconds(f.wall) << '\n';
     frames_file_.flush();
   }
   if (samples_file_.is_open() && !samples->empty()) {

@@ -123,6 +123,7 @@ class FrontPublisher {
     int64_t submap_id;
     float ms, cpu_ms;
     bool skipped;
+    Timestamp wall;  // when the front was done with it (system clock): loss-to-merge times
   };
   struct SampleLine {
     Timestamp t;

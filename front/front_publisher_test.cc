@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
 #include <thread>
 
 #include "common/run_metrics.h"
@@ -264,13 +265,23 @@ TEST(FrontPublisher, ShipsWindowsSubmapsAndWritesFiles) {
   EXPECT_EQ(lines[51].state, TrackingState::kLost);
   EXPECT_EQ(lines[51].submap_id, -1);
   EXPECT_EQ(lines[52].t, T(51));
-  // The sixth column flags the skipped frame.
+  // The sixth column flags the skipped frame; the seventh is the wall
+  // time the front was done with the frame (loss-to-merge times).
   {
     std::ifstream f(out / "front_frames.txt");
     std::string line;
     for (int k = 0; k <= 51 && std::getline(f, line); ++k) {
-      EXPECT_EQ(line.back(), k == 51 ? '1' : '0') << line;
+      std::istringstream in(line);
+      std::vector<std::string> cols;
+      for (std::string c; in >> c;) cols.push_back(c);
+      ASSERT_EQ(cols.size(), 7u) << line;
+      EXPECT_EQ(cols[5], k == 51 ? "1" : "0") << line;
     }
+  }
+  for (size_t k = 1; k < lines.size(); ++k) {
+    ASSERT_TRUE(lines[k].wall.has_value());
+    EXPECT_GE(*lines[k].wall, *lines[k - 1].wall);  // in processing order
+    EXPECT_NEAR(NsToSeconds(*lines[k].wall), NsToSeconds(WallNowNs()), 600.0);
   }
   // front_samples.txt: the window's frames with their set and window id.
   const std::vector<FrontSampleLine> samples = ReadFrontSamples((out / "front_samples.txt").string());

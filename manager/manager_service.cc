@@ -247,6 +247,7 @@ bool ManagerService::AddSubmap(Submap s) {
     // Not lost yet: it is kept in memory and in the next raw save.
     spdlog::error("manager: cannot journal {}: {}", ToString(key), why);
   }
+  if (key.source == SubmapSource::kBack) stats_.back_times.try_emplace(key.id, ManagerStats::BackTimes{WallNowNs(), 0});
   auto it = received_.find(key);
   if (it != received_.end()) {
     ++stats_.resends;
@@ -268,6 +269,22 @@ void ManagerService::UpdateCounts() {
     (map_.submap(int(i)).source == SubmapSource::kBack ? stats_.submaps_back : stats_.submaps_front)++;
   stats_.components = int(map_.ComponentsBySize().size());
   stats_.merges = int(map_.size()) - stats_.components;
+}
+
+void ManagerService::StampJoinedBackSubmaps() {
+  const Timestamp now = WallNowNs();
+  for (int root : map_.ComponentsBySize()) {
+    const std::vector<int> members = map_.Members(root);
+    const bool has_front = std::any_of(members.begin(), members.end(),
+                                       [&](int m) { return map_.Key(m).source == SubmapSource::kFront; });
+    if (!has_front) continue;
+    for (int m : members) {
+      const SubmapKey k = map_.Key(m);
+      if (k.source != SubmapSource::kBack) continue;
+      auto it = stats_.back_times.find(k.id);
+      if (it != stats_.back_times.end() && it->second.joined == 0) it->second.joined = now;
+    }
+  }
 }
 
 bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel) {
@@ -321,6 +338,7 @@ bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel) 
   dirty_ = false;
   ++stats_.rebuilds;
   UpdateCounts();
+  StampJoinedBackSubmaps();
   stats_.last_rebuild_seconds = SecondsSince(t0);
   spdlog::info("manager: rebuild {} in {:.2f} s: {} submaps, {} components, {} merges, keyframes {} -> {} after culling"
                " ({} merge attempts replayed, {} computed)",
@@ -397,6 +415,11 @@ bool ManagerService::WriteStats(std::string* why) const {
   nlohmann::json reports = nlohmann::json::array();
   for (const auto& r : stats_.reports) reports.push_back(ReportJson(r));
   j["merge_reports"] = reports;
+  nlohmann::json back = nlohmann::json::array();
+  const auto wall = [](Timestamp t) { return t == 0 ? nlohmann::json(nullptr) : nlohmann::json(NsToSeconds(t)); };
+  for (const auto& [id, t] : stats_.back_times)
+    back.push_back({{"id", id}, {"received_wall_s", wall(t.received)}, {"joined_wall_s", wall(t.joined)}});
+  j["back_submap_times"] = back;
   return WriteFileAtomically((fs::path(options_.out_dir) / "manager_stats.json").string(), j.dump(2) + "\n", why);
 }
 

@@ -67,6 +67,14 @@ struct ManagerStats {
   std::string grid;  // the last grid's summary, or why there is none
   std::vector<MergeReport> reports;  // of the last rebuild (rejections included)
   CullingReport culling;
+  // Per back submap received by this process: when it arrived and when it
+  // was first in one component with a front submap (system clock, ns; 0 not
+  // yet). With the front's wall_s column this gives `rumi eval run` its
+  // loss-to-merge times (docs/eval.md).
+  struct BackTimes {
+    Timestamp received = 0, joined = 0;
+  };
+  std::map<int64_t, BackTimes> back_times;
 };
 
 class ManagerService {
@@ -108,6 +116,7 @@ class ManagerService {
   std::string RawPath() const;
   bool MoveAside(const std::string& path, const std::string& error, std::string* why);
   void UpdateCounts();
+  void StampJoinedBackSubmaps();  // stats_.back_times[].joined of the current map
   bool WriteTrajectories(std::string* why);
   bool WriteGrid(std::string* why);
   bool WriteStats(std::string* why) const;

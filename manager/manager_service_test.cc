@@ -163,6 +163,39 @@ TEST(ManagerService, UnmergedSubmapsGetOneTrajectoryEach) {
   EXPECT_FALSE(fs::exists(dir / "merged_1.txt"));
 }
 
+// The loss-to-merge times of `rumi eval run` need when each back submap
+// arrived and when it first shared a component with a front submap.
+TEST(ManagerService, BackSubmapTimesSayWhenABackSubmapJoinedAFront) {
+  const auto s = testing::MakeScenario();
+  TempDir dir;
+  ManagerService svc(Options(dir));
+  std::string why;
+  ASSERT_TRUE(svc.Start(&why)) << why;
+  const Timestamp before = WallNowNs();
+  svc.AddSubmap(s.back.submap);
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;  // alone: a component without a front
+  ASSERT_EQ(svc.stats().back_times.count(s.back.submap.id), 1u);
+  const ManagerStats::BackTimes t0 = svc.stats().back_times.at(s.back.submap.id);
+  EXPECT_GE(t0.received, before);
+  EXPECT_EQ(t0.joined, 0);
+  nlohmann::json j = ReadJson(dir / "manager_stats.json");
+  ASSERT_EQ(j["back_submap_times"].size(), 1u);
+  EXPECT_EQ(j["back_submap_times"][0]["id"], s.back.submap.id);
+  EXPECT_TRUE(j["back_submap_times"][0]["joined_wall_s"].is_null());
+
+  svc.AddSubmap(s.front_a.submap);
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  ASSERT_EQ(svc.stats().merges, 1);
+  const ManagerStats::BackTimes t1 = svc.stats().back_times.at(s.back.submap.id);
+  EXPECT_EQ(t1.received, t0.received);  // the first arrival counts
+  EXPECT_GE(t1.joined, t1.received);
+  svc.AddSubmap(s.front_b.submap);  // a later rebuild keeps the first join
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_EQ(svc.stats().back_times.at(s.back.submap.id).joined, t1.joined);
+  j = ReadJson(dir / "manager_stats.json");
+  EXPECT_NEAR(j["back_submap_times"][0]["joined_wall_s"].get<double>(), NsToSeconds(t1.joined), 1e-6);
+}
+
 // No back submap, but front C (frames 44-80) looks at what front A (0-40)
 // mapped: the place merge joins them, and a pair it rejected is not matched
 // again on the next rebuild while neither submap changes.

@@ -49,6 +49,12 @@ int SynthOptions::HardLength() const {
   return std::max(1, static_cast<int>(std::lround(n * fps / 30.0)));
 }
 
+int SynthOptions::HardStretches() const {
+  if (scenario == SynthScenario::kSmooth || hard_period <= 0) return 1;
+  // Stretch k covers [start + k * period, start + k * period + length), inside the frames.
+  return 1 + std::max(0, (frames - 1 - HardLength() - HardStart()) / hard_period);
+}
+
 const OptionSpec<SynthOptions>& SynthOptions::Spec() {
   using O = SynthOptions;
   static const auto* spec = [] {
@@ -67,6 +73,8 @@ const OptionSpec<SynthOptions>& SynthOptions::Spec() {
     s->Number("height", &O::height, AtLeast(16), AtMost(8192), "image height");
     s->Number("hard_start", &O::hard_start, AtLeast(-1), AtMost(1000000), "first hard frame; -1: default");
     s->Number("hard_length", &O::hard_length, AtLeast(-1), AtMost(1000000), "hard frames; -1: default");
+    s->Number("hard_period", &O::hard_period, AtLeast(0), AtMost(1000000),
+              "repeat the hard stretch every this many frames (dark, drop); 0: once");
     s->Number("threads", &O::threads, AtLeast(1), AtMost(2), "render threads");
     s->Number("supersample", &O::supersample, AtLeast(1), AtMost(8), "n x n rays per pixel");
     s->Number("noise_sigma", &O::noise_sigma, AtLeast(0.0), Below(50.0), "read noise, grey levels");
@@ -90,6 +98,11 @@ const OptionSpec<SynthOptions>& SynthOptions::Spec() {
       if (st < 1 || st + l >= o.frames)
         return "hard stretch [" + std::to_string(st) + ", " + std::to_string(st + l) +
                ") must lie strictly inside the " + std::to_string(o.frames) + " frames";
+      if (o.hard_period > 0 && o.scenario != SynthScenario::kDark && o.scenario != SynthScenario::kDrop)
+        return "hard_period repeats the hard stretch of dark and drop only";
+      if (o.hard_period > 0 && o.hard_period <= l)
+        return "hard_period (" + std::to_string(o.hard_period) + ") must exceed hard_length (" + std::to_string(l) +
+               "): tracked frames between the stretches";
       return "";
     });
     return s;

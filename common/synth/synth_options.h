@@ -34,6 +34,9 @@ struct SynthOptions {
   int height = 480;
   int hard_start = -1;   // frame index; -1: 40 % into the sequence (corridor 55 %)
   int hard_length = -1;  // frames; -1: scenario default (scaled with fps)
+  // > 0: the hard stretch repeats every hard_period frames while it fits
+  // (dark and drop): a loss every few seconds for the back's stress test.
+  int hard_period = 0;
   int threads = 2;       // render threads (rows), 1 or 2
   int supersample = 2;   // n x n rays per pixel (at least n * n sub-frames when blurred)
   double noise_sigma = 1.0;  // read noise, grey levels (shot noise added on top)
@@ -60,6 +63,7 @@ struct SynthOptions {
   // Defaults resolved (-1 replaced); call after Check().
   int HardStart() const;
   int HardLength() const;
+  int HardStretches() const;  // 1, or how many repeats fit strictly inside the frames
 };
 
 

@@ -62,6 +62,8 @@ SyntheticSequence::SyntheticSequence(const SynthOptions& options) : o_(options) 
     hard_end_ = hard_begin_ + o_.HardLength();
     t_hard0_ = hard_begin_ / o_.fps;
     t_hard1_ = (hard_end_ - 1) / o_.fps;
+    stretches_ = o_.HardStretches();
+    period_s_ = o_.hard_period > 0 ? o_.hard_period / o_.fps : 0.0;
   }
   BuildTrajectory();
 }
@@ -149,7 +151,28 @@ void SyntheticSequence::BuildTrajectory() {
   }
 }
 
+bool SyntheticSequence::in_hard_stretch(int i) const {
+  if (hard_end_ <= hard_begin_ || i < hard_begin_) return false;
+  if (o_.hard_period <= 0) return i < hard_end_;
+  return (i - hard_begin_) / o_.hard_period < stretches_ && (i - hard_begin_) % o_.hard_period < hard_end_ - hard_begin_;
+}
+
+int SyntheticSequence::StretchStartedBy(double t) const {
+  if (period_s_ <= 0) return 0;
+  const int k = static_cast<int>(std::floor((t - (t_hard0_ - 0.5 / o_.fps)) / period_s_));
+  return std::clamp(k, 0, stretches_ - 1);
+}
+
 double SyntheticSequence::HardWeight(double t, double ramp) const {
+  if (period_s_ <= 0) return HardWeightOfFirst(t, ramp);
+  // The stretch begun last and the next one (its ramp starts before it).
+  const int k = StretchStartedBy(t);
+  double w = HardWeightOfFirst(t - k * period_s_, ramp);
+  if (k + 1 < stretches_) w = std::max(w, HardWeightOfFirst(t - (k + 1) * period_s_, ramp));
+  return w;
+}
+
+double SyntheticSequence::HardWeightOfFirst(double t, double ramp) const {
   if (hard_end_ <= hard_begin_) return 0.0;
   if (t >= t_hard0_ && t <= t_hard1_) return 1.0;
   if (ramp <= 0) return 0.0;
@@ -272,8 +295,9 @@ Se3 SyntheticSequence::PoseAt(double t) const {
     // rejoins its path. The view overlaps the pre-gap frames again only
     // after the realtime front has given up relocalising; an offline matcher
     // given the frames after the gap can still tie them to those before.
-    const double t_last = t_hard0_ - 1.0 / o_.fps;  // last frame before the gap
-    const double a0 = t_hard0_ - 0.5 / o_.fps, a1 = t_hard1_ + 0.5 / o_.fps;
+    const double shift = StretchStartedBy(t) * period_s_;  // repeated gaps: the last one begun
+    const double t_last = shift + t_hard0_ - 1.0 / o_.fps;  // last frame before the gap
+    const double a0 = shift + t_hard0_ - 0.5 / o_.fps, a1 = shift + t_hard1_ + 0.5 / o_.fps;
     if (t > a0) {
       const double turn = o_.drop_turn_deg * kDeg;
       const double t_ret = std::abs(turn) / (30.0 * kDeg);  // turning back
@@ -553,6 +577,8 @@ SynthWriteResult SynthesizeSequence(const SynthOptions& options, const std::stri
         {"seconds",
          {FormatSeconds(seq.timestamp(seq.hard_begin())), FormatSeconds(seq.timestamp(seq.hard_end() - 1))}},
     };
+    if (options.hard_period > 0) j["hard_stretch"]["repeats"] = {{"every_frames", options.hard_period},
+                                                                  {"count", seq.hard_stretches()}};
   } else {
     j["hard_stretch"] = nullptr;
   }

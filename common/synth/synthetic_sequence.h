@@ -35,10 +35,12 @@ class SyntheticSequence {
   // Pose at an arbitrary time (seconds since the first frame).
   Se3 PoseAt(double t) const;
 
-  // Hard stretch [hard_begin, hard_end); empty for kSmooth.
+  // The (first) hard stretch [hard_begin, hard_end); empty for kSmooth.
+  // With hard_period it repeats hard_stretches() times, every period frames.
   int hard_begin() const { return hard_begin_; }
   int hard_end() const { return hard_end_; }
-  bool in_hard_stretch(int i) const { return i >= hard_begin_ && i < hard_end_; }
+  int hard_stretches() const { return stretches_; }
+  bool in_hard_stretch(int i) const;
   // Frame missing from the stream (kDrop) - absent from rgb.txt and GT.
   bool dropped(int i) const;
   // Indices of the frames delivered to a tracker, in time order.
@@ -65,7 +67,9 @@ class SyntheticSequence {
   Se3 BasePose(double s) const;        // room orbit
   Se3 CorridorPose(double t) const;
   double CorridorTravel(double dt) const;  // metres driven within dt of the turn
-  double HardWeight(double t, double ramp) const;  // 0 outside, 1 inside the stretch
+  double HardWeight(double t, double ramp) const;  // 0 outside, 1 inside a stretch
+  double HardWeightOfFirst(double t, double ramp) const;  // the first stretch only
+  int StretchStartedBy(double t) const;  // the last stretch begun by t (0 before the first)
   double RenderRadiance(const Se3& T_wc, double u, double v) const;
 
   SynthOptions o_;
@@ -73,6 +77,8 @@ class SyntheticSequence {
   SynthScene scene_;
   int hard_begin_ = 0, hard_end_ = 0;
   double t_hard0_ = 0, t_hard1_ = 0;  // seconds
+  int stretches_ = 1;
+  double period_s_ = 0;  // seconds between repeated stretches; 0: one stretch
   double exposure_scale_ = 1.0;
   // Room orbit parameters.
   Eigen::Vector3d orbit_center_;

@@ -341,6 +341,46 @@ TEST(SyntheticSequence, TrajectoriesStayInFreeSpaceAtRealisticSpeeds) {
   }
 }
 
+// The back's stress test: a loss every period frames, each like the first.
+TEST(SyntheticSequence, RepeatedHardStretches) {
+  SynthOptions o = Small(SynthScenario::kDrop, 160, 120, 1000);
+  o.hard_start = 100;
+  o.hard_length = 30;
+  o.hard_period = 300;
+  const SyntheticSequence seq(o);
+  EXPECT_EQ(seq.hard_stretches(), 3);  // 100, 400, 700 (a 4th at 1000 would not fit)
+  EXPECT_EQ(static_cast<int>(seq.StreamIndices().size()), 1000 - 3 * 30);
+  for (int k = 0; k < 3; ++k) {
+    const int b = 100 + 300 * k;
+    EXPECT_FALSE(seq.in_hard_stretch(b - 1));
+    EXPECT_TRUE(seq.in_hard_stretch(b));
+    EXPECT_TRUE(seq.in_hard_stretch(b + 29));
+    EXPECT_FALSE(seq.in_hard_stretch(b + 30));
+  }
+  // Each gap turns the camera away from its last view by the same angle.
+  auto deg = [](const Se3& a, const Se3& b) { return RotationAngle(a.rotation().inverse() * b.rotation()) * 180 / M_PI; };
+  for (int k = 0; k < 3; ++k) {
+    const int b = 100 + 300 * k;
+    EXPECT_NEAR(deg(seq.T_wc(b - 1), seq.T_wc(b + 30)), std::abs(o.drop_turn_deg), 2.0) << "stretch " << k;
+  }
+  // The camera path has no jump anywhere.
+  for (int i = 1; i < 1000; ++i) EXPECT_LT(deg(seq.T_wc(i - 1), seq.T_wc(i)), 3.0) << i;
+  // Dark repeats too; other scenarios refuse a period.
+  SynthOptions dark = o;
+  dark.scenario = SynthScenario::kDark;
+  const SyntheticSequence d(dark);
+  EXPECT_LT(d.Gain(415), 0.2);
+  EXPECT_LT(d.Gain(715), 0.2);
+  EXPECT_NEAR(d.Gain(300), 1.0, 1e-9);
+  SynthOptions blur = o;
+  blur.scenario = SynthScenario::kBlur;
+  std::string why;
+  EXPECT_FALSE(blur.Check(&why));
+  EXPECT_NE(why.find("dark and drop only"), std::string::npos) << why;
+  o.hard_period = 30;
+  EXPECT_FALSE(o.Check(&why));
+}
+
 TEST(SyntheticSequence, HardStretchEffects) {
   {
     SynthOptions turned = Small(SynthScenario::kDrop);

@@ -21,6 +21,7 @@
 #include "common/dataset.h"
 #include "common/eval_table.h"
 #include "common/logging.h"
+#include "common/loss_to_merge.h"
 #include "common/process/exit_codes.h"
 #include "common/process/signals.h"
 #include "common/process/subprocess.h"
@@ -161,14 +162,14 @@ struct RunFiles {
 };
 
 // Converts the front's per-frame lines for the timeline and the timings.
-void LoadFrontFrames(const fs::path& front_dir, std::vector<TimelineFrame>* timeline,
-                     std::vector<double>* ms) {
+std::vector<FrontFrameLine> LoadFrontFrames(const fs::path& front_dir, std::vector<TimelineFrame>* timeline,
+                                            std::vector<double>* ms) {
   const fs::path p = front_dir / "front_frames.txt";
   if (!fs::exists(p)) {
     spdlog::warn("{} missing: no front timings, timeline without states", p.string());
-    return;
+    return {};
   }
-  const std::vector<FrontFrameLine> lines = ReadFrontFrames(p.string());
+  std::vector<FrontFrameLine> lines = ReadFrontFrames(p.string());
   bool all_ms = !lines.empty();
   for (const auto& l : lines) {
     timeline->push_back({l.t, l.state, l.submap_id, l.skipped});
@@ -176,6 +177,23 @@ void LoadFrontFrames(const fs::path& front_dir, std::vector<TimelineFrame>* time
   }
   if (all_ms) {
     for (const auto& l : lines) ms->push_back(*l.ms);
+  }
+  return lines;
+}
+
+// Loss-to-merge times (common/loss_to_merge.h); left null with a log line
+// when the front wrote no wall times.
+void LossToMergeOfRun(const std::vector<FrontFrameLine>& lines, const RunFiles& files, RunMetricsReport* report) {
+  if (lines.empty() || !lines.front().wall) {
+    spdlog::warn("front_frames.txt has no wall_s column: no loss-to-merge times");
+    return;
+  }
+  try {
+    report->loss_to_merge = ComputeLossToMerge(
+        lines, ReadBackSubmapTimes((files.back / "back_stats.json").string(),
+                                   (files.manager / "manager_stats.json").string()));
+  } catch (const std::exception& e) {
+    spdlog::warn("no loss-to-merge times: {}", e.what());
   }
 }
 
@@ -226,7 +244,7 @@ RunMetricsReport ComputeMetricsForRun(bool no_back, const Sequence& seq, const R
   in.ground_truth = seq.ground_truth;
   in.front = ReadTumTrajectory(required(files.front / "front.txt"), ro);
   std::vector<TimelineFrame> frames;
-  LoadFrontFrames(files.front, &frames, &in.front_ms);
+  const std::vector<FrontFrameLine> front_lines = LoadFrontFrames(files.front, &frames, &in.front_ms);
 
   const fs::path front_stats = files.front / "front_stats.json";
   if (fs::exists(front_stats)) {
@@ -246,7 +264,10 @@ RunMetricsReport ComputeMetricsForRun(bool no_back, const Sequence& seq, const R
     ReadManagerStats(required(files.manager / "manager_stats.json"), &in.counts);
   }
   RunMetricsReport report = ComputeRunMetrics(in);
-  if (!no_back) AuditRunMerges(files.manager, seq.ground_truth, &report);
+  if (!no_back) {
+    AuditRunMerges(files.manager, seq.ground_truth, &report);
+    LossToMergeOfRun(front_lines, files, &report);
+  }
   WriteRunMetricsJson((files.out / "metrics.json").string(), report);
 
   // Plots.

@@ -142,7 +142,12 @@ void RegisterSynthCommand(CLI::App* app) {
       ->capture_default_str();
   sub->add_option("--hard-length", args->o.hard_length, "hard stretch length in frames (-1: scenario default)")
       ->capture_default_str();
+  sub->add_option("--hard-period", args->o.hard_period,
+                  "repeat the hard stretch every N frames (dark, drop; 0: once): a loss every few seconds")
+      ->capture_default_str();
   sub->add_option("--threads", args->o.threads, "render threads (1 or 2)")->capture_default_str();
+  sub->add_option("--supersample", args->o.supersample, "n x n rays per pixel (1: 4x faster, aliased edges)")
+      ->capture_default_str();
   sub->add_option("--noise", args->o.noise_sigma, "read noise sigma, grey levels")->capture_default_str();
   sub->add_option("--blur-rate", args->o.blur_peak_rate_deg, "blur: peak yaw rate, deg/s")->capture_default_str();
   sub->add_option("--blur-shake", args->o.blur_shake_rate_deg, "blur: 8 Hz shake angular speed, deg/s")

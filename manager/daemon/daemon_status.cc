@@ -66,7 +66,7 @@ std::string FormatDaemonStatus(const nlohmann::json& st, bool alive) {
     << Get(m, "state") << ", " << Get(m, "rebuilds", "0") << " rebuilds (last " << Get(m, "last_rebuild_s")
     << " s)\n";
   o << "  back       queue " << Get(b, "queue", "0") << ", built " << Get(b, "built", "0") << ", failed "
-    << Get(b, "failed", "0") << ", dropped " << Get(b, "dropped", "0");
+    << Get(b, "failed", "0") << ", dropped " << Get(b, "dropped", "0") << ", joined " << Get(b, "joined", "0");
   if (b.contains("building")) {
     const nlohmann::json& w = b["building"];
     char buf[64];
@@ -123,6 +123,7 @@ std::string DaemonStatusCsv(const nlohmann::json& st, bool header) {
   col("windows_built", Get(b, "built", ""));
   col("windows_failed", Get(b, "failed", ""));
   col("windows_dropped", Get(b, "dropped", ""));
+  col("windows_joined", Get(b, "joined", ""));
   return (header ? h.str() + "\n" : std::string()) + v.str() + "\n";
 }
 
