@@ -131,17 +131,22 @@ std::string Activity(const Supervisor& sup, int front, int back, int manager, si
   std::string d = "front done";
   if (back >= 0 && sup.info(back).state == ChildState::kRunning) {
     const nlohmann::json& st = sup.info(back).status;
+    // Windows the queue joined into others or dropped are never built on
+    // their own: what is left is the one being built and those waiting.
     const int built = st.value("built", 0) + st.value("failed", 0);
-    const int received = st.value("received", 0);
+    const int waiting = st.value("queue", 0), joined = st.value("joined", 0), dropped = st.value("dropped", 0);
+    const std::string queue_note = joined + dropped > 0 ? " (" + std::to_string(joined) + " joined, " +
+                                                              std::to_string(dropped) + " dropped)"
+                                                        : "";
     if (st.contains("building")) {
       const nlohmann::json& b = st["building"];
       char buf[160];
       std::snprintf(buf, sizeof(buf), "; back: window %d of %d (%d frames), %s, %.0f s", built + 1,
-                    std::max(received, built + 1), b.value("frames", 0), b.value("stage", std::string("?")).c_str(),
+                    built + 1 + waiting, b.value("frames", 0), b.value("stage", std::string("?")).c_str(),
                     b.value("elapsed_s", 0.0));
-      d += buf;
+      d += buf + queue_note;
     } else {
-      d += "; back: " + std::to_string(built) + " of " + std::to_string(received) + " windows built";
+      d += "; back: " + std::to_string(built) + " windows built, " + std::to_string(waiting) + " waiting" + queue_note;
     }
   }
   if (manager >= 0 && sup.info(manager).state == ChildState::kRunning) {
