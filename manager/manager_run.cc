@@ -172,18 +172,19 @@ ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service
   const auto rebuild = [&](const std::atomic<bool>* cancel) {
     spdlog::info("manager: rebuild {} starting", service->stats().rebuilds + 1);
     notifier.Heartbeat(StatusJson(*service, "rebuilding"), /*force=*/true);
-    const bool ok = service->Rebuild(&why, cancel);
-    last_rebuild = std::chrono::steady_clock::now();
-    publish("running");
-    if (ok) {
+    // The front hears of the new map before it is saved: a halted robot
+    // waits for the merge, not for the disk (nor for a save that fails).
+    const bool ok = service->Rebuild(&why, cancel, [&] {
       MapNotice n;
       n.front_submap_upto = service->stats().front_submap_upto;
       n.front_submap_end = service->stats().front_submap_upto_end;
       n.components = service->stats().components;
       n.t = WallNowNs();
       notices.Send(n);
-      return true;
-    }
+    });
+    last_rebuild = std::chrono::steady_clock::now();
+    publish("running");
+    if (ok) return true;
     if (stop && stop->load()) spdlog::info("manager: {}", why);  // nothing was changed
     else spdlog::error("manager: {}", why);
     return false;

@@ -287,7 +287,8 @@ void ManagerService::StampJoinedBackSubmaps() {
   }
 }
 
-bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel) {
+bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel,
+                             const std::function<void()>& on_rebuilt) {
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<SubmapKey> replaced;
   for (const auto& kv : received_) replaced.push_back(kv.first);
@@ -344,6 +345,7 @@ bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel) 
                " ({} merge attempts replayed, {} computed)",
                stats_.rebuilds, stats_.last_rebuild_seconds, map_.size(), stats_.components, stats_.merges,
                stats_.saved_frames, stats_.saved_frames_postculled, merge_memo_.hits(), merge_memo_.misses());
+  if (on_rebuilt) on_rebuilt();
   return WriteOutputs(why);
 }
 

@@ -14,6 +14,7 @@
 // rate-limited by the caller (RunManagerLoop, manager/manager_run.h).
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -101,7 +102,11 @@ class ManagerService {
   // then writes the outputs. False (with why) when an output cannot be
   // written, or when *cancel was set (SIGTERM): then the rebuild is abandoned
   // whole, the map and the files stay as they were, and the state stays dirty.
-  bool Rebuild(std::string* why, const std::atomic<bool>* cancel = nullptr);
+  // on_rebuilt runs once the new map is in place, before the writes: what
+  // waits on the map (a halted robot) need not wait on the disk, nor on a
+  // save that fails.
+  bool Rebuild(std::string* why, const std::atomic<bool>* cancel = nullptr,
+               const std::function<void()>& on_rebuilt = {});
   // Writes map file (atomic), merged.txt, merged_<k>.txt (one per component,
   // largest first, merged_0 == merged.txt), manager_stats.json (all atomic).
   bool WriteOutputs(std::string* why);

@@ -187,9 +187,12 @@ TEST_F(RobotLink, HierarchicalModeHaltsTheRobotUntilTheMerge) {
   const nlohmann::json halts = link["halts"];
   const nlohmann::json sim = SimStats();
   const std::string front_log = Slurp(state() / "logs" / "rumi-front.log");
+  const std::string manager_log = Slurp(state() / "logs" / "rumi-manager.log");
   ASSERT_GE(halts["halts"].get<int>(), 1) << front_log;
   // Every halt ended because the merge came, none by the time limit.
-  EXPECT_EQ(halts["resumed_on_merge"].get<int>(), halts["halts"].get<int>()) << front_log;
+  EXPECT_EQ(halts["resumed_on_merge"].get<int>(), halts["halts"].get<int>()) << front_log << "\n"
+                                                                                  << manager_log << "\n"
+                                                                                  << Slurp(dir_ / "rumid.log");
   EXPECT_EQ(halts["resumed_on_timeout"].get<int>(), 0);
   // The robot stood still once per halt, and its camera kept streaming.
   EXPECT_EQ(sim["halts"].get<int>(), halts["halts"].get<int>()) << Slurp(dir_ / "sim.log");

@@ -240,7 +240,11 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
       started_all = false;
       break;
     }
-    // The next one starts once this one is up (or after 30 s, or if it died).
+    // The next one starts once the manager is up (the map loaded; at most
+    // 30 s, or until it died). Not so for the back: it runs at idle priority
+    // and, on a busy machine, may take minutes to come up; the front never
+    // waits for it (its windows wait in the ring).
+    if (i != manager) continue;
     const auto t0 = Clock::now();
     while (!sup.info(i).ready && sup.Alive(i) && Since(t0) < 30 && !(stop && stop->load())) sup.Poll(0.05);
   }
