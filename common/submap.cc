@@ -20,6 +20,12 @@ const char* ToString(TrackingState s) {
   return "unknown";
 }
 
+size_t TrackedFrames(const Submap& s) {
+  size_t n = 0;
+  for (const FrameRecord& r : s.frames) n += r.state == TrackingState::kTracking ? 1 : 0;
+  return n;
+}
+
 int DropWeakPoints(Submap* submap, int min_observations) {
   std::unordered_set<int64_t> weak;
   std::vector<MapPoint> kept;

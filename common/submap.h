@@ -79,6 +79,9 @@ struct Submap {
   std::vector<OdometryPose> odometry;  // front: pose source at its frames (empty without one)
 };
 
+// Frames of the submap the front tracked (state kTracking).
+size_t TrackedFrames(const Submap& s);
+
 // Removes the points observed by fewer than min_observations keyframes and
 // unlinks them from the keyframes (point_ids -1). The ORB-SLAM map-point rule
 // applied to a back submap: SfM keeps two-view points that a keyframe-based

@@ -27,6 +27,12 @@ double MsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
+// Frees a vector's buffer (`v = {}` only clears it: the capacity stays).
+template <class T>
+void Release(std::vector<T>* v) {
+  std::vector<T>().swap(*v);
+}
+
 }  // namespace
 
 Front::Front(const FrontOptions& options, const PinholeCamera& camera, int64_t first_submap_id)
@@ -112,13 +118,22 @@ void Front::TrimFinished(size_t n) {
   for (size_t i = trimmed_; i < std::min(n, finished_.size()); ++i) {
     Submap& s = finished_[i];
     for (Keyframe& kf : s.keyframes) {
-      kf.keypoints = {};
-      kf.octaves = {};
-      kf.point_ids = {};
+      Release(&kf.keypoints);
+      Release(&kf.octaves);
+      Release(&kf.point_ids);
       kf.descriptors.release();
     }
-    s.points = {};
-    s.odometry = {};
+    Release(&s.points);
+    Release(&s.odometry);
+    // The first with the most tracked frames, as the publisher picks front.txt's.
+    const size_t tracked = TrackedFrames(s);
+    if (largest_trimmed_ < 0 || tracked > largest_trimmed_tracked_) {
+      if (largest_trimmed_ >= 0) Release(&finished_[largest_trimmed_].frames);
+      largest_trimmed_ = static_cast<int>(i);
+      largest_trimmed_tracked_ = tracked;
+    } else {
+      Release(&s.frames);
+    }
   }
   trimmed_ = std::max(trimmed_, std::min(n, finished_.size()));
 }
@@ -225,6 +240,10 @@ FrameRecord Front::Track(Timestamp t, const cv::Mat& image) {
     submap_frames_.push_back(fr);
   } else if (state_ != TrackingState::kCoarse) {
     submap_frames_.push_back({rec, nullptr, Se3()});
+  }
+  if (history_limit_ > 0 && records_.size() >= 2 * history_limit_) {
+    records_.erase(records_.begin(), records_.end() - history_limit_);
+    timings_.erase(timings_.begin(), timings_.end() - std::min(timings_.size(), history_limit_));
   }
   records_.push_back(rec);
   timing.track_ms = MsSince(t1);

@@ -73,10 +73,14 @@ class Front {
   Submap CurrentSubmap();                                  // snapshot
   const std::vector<Submap>& FinishedSubmaps() const { return finished_; }
   // Drops the map of the first n finished submaps (keypoints, descriptors,
-  // map points), keeping their keyframe poses and frame records: a front that
-  // runs for hours holds only what its final files need once the publisher
-  // has copied them (rumid).
+  // map points), keeping their keyframe poses, and the frame records of all
+  // of them but the one with the most tracked frames (front.txt): a front
+  // that runs for hours holds only what its final files need once the
+  // publisher has copied them (rumid).
   void TrimFinished(size_t n);
+  // Keeps at most the last 2 x frames per-frame records and timings (0: all).
+  // The pipeline's front needs only the newest (the publisher logs each).
+  void LimitHistory(size_t frames) { history_limit_ = frames; }
   const std::vector<SubmapLink>& links() const { return links_; }
   const std::vector<FrameRecord>& records() const { return records_; }
   const std::vector<FrameTiming>& timings() const { return timings_; }
@@ -152,10 +156,13 @@ class Front {
 
   std::vector<Submap> finished_;
   size_t trimmed_ = 0;  // finished_[0, trimmed_) hold poses only
+  int largest_trimmed_ = -1;  // the trimmed submap that keeps its frame records
+  size_t largest_trimmed_tracked_ = 0;
   std::vector<SubmapLink> links_;
   std::optional<SubmapLink> pending_link_;
   std::vector<FrameRecord> records_;
   std::vector<FrameTiming> timings_;
+  size_t history_limit_ = 0;
   std::deque<std::pair<Timestamp, Se3>> poses_;
   Se3 coarse_T_wc0_;
   std::optional<Se3> coarse_pose0_;

@@ -6,6 +6,7 @@
 #include <random>
 
 #include "front/front.h"
+#include "front/front_publisher.h"
 #include "front/front_test_util.h"
 
 namespace rumi {
@@ -25,6 +26,7 @@ TEST(FrontLoss, BlackAndNoiseFramesStartANewSubmapWithinOneSecond) {
   o.local_mapping_thread = false;
   o.local_ba_max_time_s = 60;  // no wall-clock cut: same result on a loaded CI machine
   Front front(o, seq->camera);
+  front.LimitHistory(10);
   Timestamp t_loss = -1, t_new_submap = -1;
   int tracked_before = 0, tracked_after = 0;
   for (int i = 0; i < 76; ++i) {
@@ -63,6 +65,33 @@ TEST(FrontLoss, BlackAndNoiseFramesStartANewSubmapWithinOneSecond) {
   front.Finish();
   EXPECT_GE(front.FinishedSubmaps().size(), 2u);
   EXPECT_GT(front.FinishedSubmaps().back().id, 0);
+  // Bounded for a day-long run: the newest records and timings only...
+  EXPECT_LE(front.records().size(), 20u);
+  EXPECT_EQ(front.timings().size(), front.records().size());
+  EXPECT_EQ(front.records().back().timestamp, seq->frames[75].timestamp);
+  // ...and once the publisher has them, the finished submaps keep their
+  // keyframe poses, and frame records only where front.txt comes from.
+  const std::vector<Submap>& fin = front.FinishedSubmaps();
+  const int largest = LargestFrontSubmap(fin);
+  ASSERT_GE(largest, 0);
+  const size_t largest_tracked = TrackedFrames(fin[largest]);
+  std::vector<size_t> keyframes;
+  for (const Submap& s : fin) keyframes.push_back(s.keyframes.size());
+  front.TrimFinished(fin.size());
+  EXPECT_EQ(LargestFrontSubmap(fin), largest);
+  EXPECT_EQ(TrackedFrames(fin[largest]), largest_tracked);
+  // Freed, not only cleared (a cleared vector keeps its buffer).
+  for (size_t i = 0; i < fin.size(); ++i) {
+    EXPECT_EQ(fin[i].points.capacity(), 0u);
+    EXPECT_EQ(fin[i].keyframes.size(), keyframes[i]);
+    for (const Keyframe& kf : fin[i].keyframes) {
+      EXPECT_EQ(kf.keypoints.capacity() + kf.point_ids.capacity() + kf.octaves.capacity(), 0u);
+      EXPECT_TRUE(kf.descriptors.empty());
+    }
+    if (static_cast<int>(i) != largest) {
+      EXPECT_EQ(fin[i].frames.capacity(), 0u) << "submap " << fin[i].id;
+    }
+  }
 }
 
 TEST(FrontLoss, DroppedFramesRelocaliseOrRestartWithinOneSecond) {

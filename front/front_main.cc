@@ -20,6 +20,7 @@
 #include <chrono>
 
 #include "common/process/exit_codes.h"
+#include "common/recent_samples.h"
 #include "configs/process_setup.h"
 #include "common/dataset.h"
 #include "common/logging.h"
@@ -31,13 +32,6 @@
 
 namespace rumi {
 namespace {
-
-double Percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const size_t i = std::min(v.size() - 1, static_cast<size_t>(p * (v.size() - 1) + 0.5));
-  return v[i];
-}
 
 // Resident set size of this process (VmRSS), MiB; -1 when unknown.
 double ResidentMiB() {

@@ -30,20 +30,6 @@ int64_t SteadyNs() {
 
 double MsBetween(int64_t a, int64_t b) { return static_cast<double>(b - a) * 1e-6; }
 
-// Nearest-rank percentile, p in [0, 1]; 0 for no values.
-double Percentile(std::vector<float> v, double p) {
-  if (v.empty()) return 0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(std::ceil(p * v.size())) - (p > 0 ? 1 : 0));
-  std::nth_element(v.begin(), v.begin() + k, v.end());
-  return v[k];
-}
-
-size_t TrackedFrames(const Submap& s) {
-  size_t n = 0;
-  for (const FrameRecord& r : s.frames) n += r.state == TrackingState::kTracking ? 1 : 0;
-  return n;
-}
-
 // Timestamp of the last line of front_frames.txt (0: none): a restarted
 // front appends only what comes after it.
 Timestamp LastLoggedFrame(const std::string& path) {
@@ -122,7 +108,6 @@ FrontPublisher::FrontPublisher(const FrontPublisherOptions& options, const IpcOp
     submaps_->ring().KeepSegmentOnClose();
   }
   opened_ns_ = SteadyNs();
-  on_frame_us_.reserve(1 << 14);
   frame_lines_.reserve(256);
   staged_lines_.reserve(64);
   staged_samples_.reserve(256);
@@ -224,7 +209,7 @@ void FrontPublisher::OnFrame(const FrameRecord& rec, const cv::Mat& image, doubl
         const int64_t s0 = SteadyNs();
         auto s = std::make_shared<const Submap>(snapshot());
         snap_ns = SteadyNs() - s0;
-        snapshot_ms_.push_back(static_cast<float>(snap_ns * 1e-6));
+        snapshot_ms_.Add(snap_ns * 1e-6);
         // A large map makes the snapshot slow: keep its share of the stream time bounded.
         resend_gap_s_ = std::max(o_.resend_interval_s, snap_ns * 1e-9 / o_.max_snapshot_share);
         if (static_cast<int>(s->keyframes.size()) >= o_.resend_min_keyframes) {
@@ -239,7 +224,7 @@ void FrontPublisher::OnFrame(const FrameRecord& rec, const cv::Mat& image, doubl
   // tracking thread never wakes (and is never preempted by) it.
   Handoff(false);
   // The per-frame figure leaves the periodic snapshot out (reported apart).
-  on_frame_us_.push_back(static_cast<float>((SteadyNs() - t0 - snap_ns) * 1e-3));
+  on_frame_us_.Add((SteadyNs() - t0 - snap_ns) * 1e-3);
 }
 
 void FrontPublisher::OnSkipped(Timestamp t) {
@@ -538,13 +523,13 @@ FrontPublisherStats FrontPublisher::stats() const {
   s.windows_dropped += t_stats_.windows_dropped;
   s.submaps_finished = t_stats_.submaps_finished;
   s.submap_drops += t_stats_.submap_drops;
-  s.snapshots = snapshot_ms_.size();
-  s.snapshot_ms_median = Percentile(snapshot_ms_, 0.5);
-  s.snapshot_ms_max = Percentile(snapshot_ms_, 1.0);
+  s.snapshots = snapshot_ms_.count();
+  s.snapshot_ms_median = snapshot_ms_.Percentile(0.5);
+  s.snapshot_ms_max = snapshot_ms_.max();
   s.finished_copy_ms_max = finished_copy_ms_max_;
-  s.on_frame_us_median = Percentile(on_frame_us_, 0.5);
-  s.on_frame_us_p99 = Percentile(on_frame_us_, 0.99);
-  s.on_frame_us_max = Percentile(on_frame_us_, 1.0);
+  s.on_frame_us_median = on_frame_us_.Percentile(0.5);
+  s.on_frame_us_p99 = on_frame_us_.Percentile(0.99);
+  s.on_frame_us_max = on_frame_us_.max();
   return s;
 }
 

@@ -33,6 +33,7 @@
 #include "common/submap.h"
 #include "common/option_spec.h"
 #include "common/process/notify.h"
+#include "common/recent_samples.h"
 #include "common/window.h"
 #include "front/sampler.h"
 #include "ipc/channels.h"
@@ -170,7 +171,7 @@ class FrontPublisher {
   std::vector<Job> staged_jobs_;
   size_t staged_bounded_ = 0, staged_resends_ = 0;
   bool last_window_ = false;
-  std::vector<float> on_frame_us_, snapshot_ms_;
+  RecentSamples on_frame_us_, snapshot_ms_;  // median / p99 over the newest 65,536
   double finished_copy_ms_max_ = 0;
   bool finished_called_ = false;
 

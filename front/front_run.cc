@@ -70,6 +70,7 @@ int RunFront(const FrontRunOptions& o, const std::atomic<bool>* stop) {
   HaltStats halt_stats;
   try {
     Front front(o.front, stream->camera(), o.first_submap_id);
+    front.LimitHistory(1);  // the publisher logs every frame; a day-long run must not grow
     FrontPublisherOptions popt = o.publisher;
     popt.first_window_id = o.first_submap_id;
     FrontPublisher pub(popt, o.ipc, o.sampler, stream->camera().options());

@@ -45,13 +45,6 @@ bool Resolve(const std::string& hostport, sockaddr_storage* addr, socklen_t* len
   return true;
 }
 
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
-  std::nth_element(v.begin(), v.begin() + k, v.end());
-  return v[k];
-}
-
 }  // namespace
 
 nlohmann::json LinkStats::ToJson() const {
@@ -299,9 +292,8 @@ void LinkEndpoint::Timers(int64_t now) {
       LinkFrameOut o;
       o.ground_capture_us = clock_.synced() ? clock_.ToGround(static_cast<int64_t>(f.robot_time_us)) : f.first_us;
       const double lat = (f.complete_us - o.ground_capture_us) * 1e-3;
-      latencies_ms_.push_back(lat);
-      if (latencies_ms_.size() > 1000) latencies_ms_.erase(latencies_ms_.begin(), latencies_ms_.begin() + 500);
-      stats_.latency_max_ms = std::max(stats_.latency_max_ms, lat);
+      latencies_ms_.Add(lat);
+      stats_.latency_max_ms = latencies_ms_.max();
       LogFrame(f, o.ground_capture_us, "complete");
       o.frame = std::move(f);
       frames_.push_back(std::move(o));
@@ -424,8 +416,8 @@ LinkStats LinkEndpoint::stats() const {
   std::lock_guard<std::mutex> l(mu_);
   LinkStats s = stats_;
   s.frames = reassembler_.stats();
-  s.latency_p50_ms = Percentile(latencies_ms_, 0.5);
-  s.latency_p95_ms = Percentile(latencies_ms_, 0.95);
+  s.latency_p50_ms = latencies_ms_.Percentile(0.5);
+  s.latency_p95_ms = latencies_ms_.Percentile(0.95);
   const int64_t now = LinkNowUs();
   s.synced = clock_.synced();
   s.clock_offset_ms = clock_.OffsetAt(now) * 1e-3;

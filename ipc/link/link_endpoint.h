@@ -20,6 +20,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/recent_samples.h"
 #include "ipc/link/clock_sync.h"
 #include "ipc/link/frame_reassembler.h"
 #include "ipc/link/link_options.h"
@@ -107,7 +108,7 @@ class LinkEndpoint {
   std::deque<LinkFrameOut> frames_;
   std::deque<LinkImuSample> imu_;
   LinkStats stats_;
-  std::vector<double> latencies_ms_;  // last 1000, for the percentiles
+  RecentSamples latencies_ms_{1000};  // the percentiles are over the newest 1000..2000
   bool want_halt_ = false;
   bool halt_acked_ = false;
   std::vector<PendingControl> controls_;

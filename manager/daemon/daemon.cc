@@ -280,9 +280,11 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
     }
     const bool all_ready = sup.info(front).ready && sup.info(back).ready && sup.info(manager).ready;
     if (!ready_sent && all_ready) {
-      systemd.Ready();
       ready_sent = true;
       state = "running";
+      publish();  // status.json says so before systemd hears it
+      last_status = Clock::now();
+      systemd.Ready();
       spdlog::info("rumid: ready (front, back and manager up, map loaded)");
     }
     if (source_ended && state == "running") state = "finishing";

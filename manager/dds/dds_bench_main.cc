@@ -31,6 +31,7 @@
 #include <thread>
 
 #include "common/process/subprocess.h"
+#include "common/recent_samples.h"
 #include "manager/manager_service.h"
 #include "manager/map_file.h"
 #include "manager/map_snapshot_of.h"
@@ -42,12 +43,6 @@ namespace rumi {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double Percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<size_t>(p * (v.size() - 1) + 0.5))];
-}
 
 [[noreturn]] void Serve(const DdsOptions& o, const std::string& instance, int points) {
   ::prctl(PR_SET_PDEATHSIG, SIGKILL);
