@@ -17,9 +17,10 @@ struct AssociationOptions {
   // evo pairs every pose of the SHORTER trajectory (the estimate on ties) with
   // the nearest-in-time pose of the longer one, within max_diff; it can then
   // use one pose of the longer trajectory twice when the shorter one has two
-  // poses closer than 2 * max_diff. one_to_one keeps only the closer of such
-  // pairs (earlier on a tie); otherwise identical to evo.
-  bool one_to_one = true;
+  // poses closer than 2 * max_diff. That is the default, so rumi's ATE is
+  // evo's; one_to_one (strict) keeps only the closer of such pairs (earlier
+  // on a tie).
+  bool one_to_one = false;
   static const OptionSpec<AssociationOptions>& Spec();
   bool Check(std::string* why = nullptr) const;
 };

@@ -42,6 +42,35 @@ TEST(Cli, EvalAteSim3MatchesEvo) {
   EXPECT_NE(r.out.find("32"), std::string::npos) << r.out;
 }
 
+TEST(Cli, EvalAteFollowsEvoOnSharedAndDuplicatedPosesUnlessStrict) {
+  // The official TUM fr2_desk ground truth has a duplicated timestamp: evo
+  // reads it (its nearest search picks the first); --strict refuses it.
+  const std::string fr2 = kEvo + "fr2_desk_ORB.txt " + kEvo + "fr2_desk_groundtruth.txt";
+  Result r = RunRumi("eval ate " + fr2 + " --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("\"one_to_one\": false"), std::string::npos) << r.out;
+  r = RunRumi("eval ate " + fr2 + " --strict");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.out.find("duplicates"), std::string::npos) << r.out;
+  // Two estimate poses 12 ms apart nearest to one ground-truth pose: evo
+  // pairs both with it, --strict only the closer.
+  const fs::path dir = fs::temp_directory_path() / ("rumi_cli_evo_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  // (evo walks the shorter trajectory, here the estimate.)
+  std::ofstream(dir / "gt.txt") << "0.000 0 0 0 0 0 0 1\n1.000 1 0 0 0 0 0 1\n2.000 2 1 0 0 0 0 1\n"
+                                   "3.000 3 0 1 0 0 0 1\n4.000 4 1 1 0 0 0 1\n5.000 5 2 1 0 0 0 1\n";
+  std::ofstream(dir / "est.txt") << "0.005 0 0 0 0 0 0 1\n0.017 0 0 0 0 0 0 1\n2.000 2 1 0 0 0 0 1\n"
+                                    "3.000 3 0 1 0 0 0 1\n4.000 4 1 1 0 0 0 1\n";
+  const std::string pair = (dir / "est.txt").string() + " " + (dir / "gt.txt").string() + " --json";
+  r = RunRumi("eval ate " + pair);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("\"pairs\": 5"), std::string::npos) << r.out;
+  r = RunRumi("eval ate " + pair + " --strict");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("\"pairs\": 4"), std::string::npos) << r.out;
+  fs::remove_all(dir);
+}
+
 TEST(Cli, EvalAteMissingFileIsAClearError) {
   const Result r = RunRumi("eval ate /nonexistent/est.txt " + kEvo + "freiburg1_xyz-groundtruth.txt");
   EXPECT_NE(r.code, 0);

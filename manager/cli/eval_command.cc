@@ -23,8 +23,7 @@ struct AteArgs {
   std::string align = "sim3";
   double max_diff_s = 0.02;
   bool by_index = false;
-  bool many_to_one = false;
-  bool drop_duplicates = false;
+  bool strict = false;  // one-to-one pairs, duplicate timestamps refused
   std::string frames_path;  // sequence frame timestamps, for tracking rates
   std::string errors_path;  // per-pair errors out
   bool json = false;
@@ -71,15 +70,18 @@ int RunAte(const AteArgs& a) {
     throw std::runtime_error("unknown alignment '" + a.align + "' (none, se3, sim3)");
   }
   o.association.max_diff_s = a.max_diff_s;
-  o.association.one_to_one = !a.many_to_one;
+  // evo's rules unless --strict: a pose of the longer trajectory may pair
+  // twice, and of poses with equal timestamps the first is used.
+  o.association.one_to_one = a.strict;
+  const bool drop_duplicates = !a.strict;
   o.match_by_index = a.by_index;
   std::string why;
   if (!o.Check(&why)) throw std::runtime_error(why);
 
   TrajectoryFormat est_format, gt_format;
-  const Trajectory est = Load(a.est_path, a.format, a.est_times, a.drop_duplicates, &est_format);
+  const Trajectory est = Load(a.est_path, a.format, a.est_times, drop_duplicates, &est_format);
   const Trajectory gt = Load(a.gt_path, a.gt_format.empty() ? a.format : a.gt_format, a.gt_times,
-                             a.drop_duplicates, &gt_format);
+                             drop_duplicates, &gt_format);
   const AteResult r = ComputeAte(est, gt, o);
   if (!a.errors_path.empty()) WriteErrors(a.errors_path, est, gt, r);
 
@@ -131,7 +133,7 @@ int RunAte(const AteArgs& a) {
   } else {
     std::printf("association:  %zu pairs (max_diff %.4g s, largest |dt| %.4g s%s)\n",
                 r.pairs.size(), o.association.max_diff_s, r.max_abs_dt_s,
-                o.association.one_to_one ? "" : ", many-to-one allowed");
+                o.association.one_to_one ? ", one-to-one (--strict)" : "");
   }
   const Eigen::AngleAxisd aa(S.rotation());
   std::printf("alignment:    %s%s, scale %.9g, rotation %.6g deg, translation [%.6g %.6g %.6g]\n",
@@ -175,10 +177,9 @@ void AddAteCommand(CLI::App* eval) {
   cmd->add_option("--est-times", a->est_times, "KITTI times file for the estimate");
   cmd->add_option("--gt-times", a->gt_times, "KITTI times file for the ground truth");
   cmd->add_flag("--by-index", a->by_index, "pair the i-th poses, ignoring timestamps (KITTI)");
-  cmd->add_flag("--many-to-one", a->many_to_one,
-                "keep evo's pairs even when two share one pose of the longer trajectory");
-  cmd->add_flag("--drop-duplicates", a->drop_duplicates,
-                "keep the first of poses with equal timestamps instead of failing");
+  cmd->add_flag("--strict", a->strict,
+                "a pose pairs at most once and equal timestamps are an error (default: evo's rules, "
+                "a ground-truth pose may pair twice and the first of equal timestamps is used)");
   cmd->add_option("--frames", a->frames_path,
                   "sequence frame timestamps (first column, seconds) to report tracking rates");
   cmd->add_option("--errors", a->errors_path, "write per-pair translation errors to this file");
