@@ -106,11 +106,12 @@ std::unique_ptr<FrameSource> OpenEurocDataset(const DatasetOptions& options) {
   const std::string tum_body = JoinPath(seq, "groundtruth_body.txt");
   if (IsFile(csv) || (IsFile(tum_body) && !IsFile(tum_cam))) {
     const bool native = IsFile(csv);
-    gt = ToGroundTruth(native ? ReadEurocTrajectory(csv) : ReadTumTrajectory(tum_body));
+    gt = ToGroundTruth(native ? ReadEurocTrajectory(csv, GroundTruthReadOptions())
+                              : ReadTumTrajectory(tum_body, GroundTruthReadOptions()));
     for (auto& [t, T_wb] : gt) T_wb = T_wb * T_BS;
     spdlog::debug("EuRoC: body ground truth from {} moved to cam0 by T_BS", native ? csv : tum_body);
   } else if (IsFile(tum_cam)) {
-    gt = ToGroundTruth(ReadTumTrajectory(tum_cam));
+    gt = ToGroundTruth(ReadTumTrajectory(tum_cam, GroundTruthReadOptions()));
   }
   auto image_gt = AssociateNearest(images, gt, SecondsToNs(options.max_diff_s));
   return std::make_unique<ListFrameSource>(cam, std::move(images), std::move(gt), std::move(image_gt));

@@ -137,7 +137,7 @@ std::unique_ptr<FrameSource> OpenIclDataset(const DatasetOptions& options) {
   } else {
     const std::string tum = JoinPath(options.path, "groundtruth.txt");
     if (IsFile(tum)) {
-      gt = ToGroundTruth(ReadTumTrajectory(tum));
+      gt = ToGroundTruth(ReadTumTrajectory(tum, GroundTruthReadOptions()));
       image_gt = AssociateNearest(images, gt, SecondsToNs(options.max_diff_s));
     }
   }

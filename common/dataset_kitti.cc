@@ -19,7 +19,7 @@ std::unique_ptr<FrameSource> OpenKittiDataset(const DatasetOptions& options) {
   if (IsFile(rgb_txt)) {
     images = ReadImageIndex(rgb_txt, options.path);
     const std::string gt_path = JoinPath(options.path, "groundtruth.txt");
-    if (IsFile(gt_path)) gt = ToGroundTruth(ReadTumTrajectory(gt_path));
+    if (IsFile(gt_path)) gt = ToGroundTruth(ReadTumTrajectory(gt_path, GroundTruthReadOptions()));
   } else {
     const std::string times_path = JoinPath(options.path, "times.txt");
     RequireFile(times_path, "KITTI times file (or rgb.txt)");

@@ -109,6 +109,7 @@ TEST(DatasetFolder, ReadsFramesInOrderWithCalibTxt) {
             "# t tx ty tz qx qy qz qw\n"
             "0.100 1 0 0 0 0 0 1\n"
             "0.155 2 0 0 0 0 0 1\n"    // 5 ms after frame 1
+            "0.155 9 0 0 0 0 0 1\n"    // a duplicated stamp (TUM fr2_desk has one): the first counts
             "0.300 3 0 0 0 0 0 1\n");  // frame 4 at 0.300 exactly; frames 2, 3 too far
   auto src = OpenDataset(FolderOptions(d));
   EXPECT_EQ(src->camera().width(), 64);  // from the first image

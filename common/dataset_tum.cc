@@ -59,7 +59,7 @@ std::unique_ptr<FrameSource> OpenTumDataset(const DatasetOptions& options) {
   });
   GroundTruth gt;
   const std::string gt_path = JoinPath(options.path, "groundtruth.txt");
-  if (IsFile(gt_path)) gt = ToGroundTruth(ReadTumTrajectory(gt_path));
+  if (IsFile(gt_path)) gt = ToGroundTruth(ReadTumTrajectory(gt_path, GroundTruthReadOptions()));
   auto image_gt = AssociateNearest(images, gt, SecondsToNs(options.max_diff_s));
   return std::make_unique<ListFrameSource>(cam, std::move(images), std::move(gt), std::move(image_gt));
 }

@@ -130,6 +130,12 @@ std::vector<ImageEntry> ReadImageIndex(const std::string& file, const std::strin
   return out;
 }
 
+TrajectoryReadOptions GroundTruthReadOptions() {
+  TrajectoryReadOptions o;
+  o.drop_duplicates = true;
+  return o;
+}
+
 GroundTruth ToGroundTruth(const Trajectory& traj) {
   GroundTruth gt;
   gt.reserve(traj.size());

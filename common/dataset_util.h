@@ -45,6 +45,9 @@ std::vector<ImageEntry> ReadImageIndex(const std::string& file, const std::strin
                                        int time_col = 0, int path_col = 1);
 
 GroundTruth ToGroundTruth(const Trajectory& traj);
+// How datasets read their ground truth: as evo does, the first of poses with
+// equal timestamps counts (logged); unsorted files are still an error.
+TrajectoryReadOptions GroundTruthReadOptions();
 
 // Index of the pose nearest to t with |dt| <= max_diff; -1 when none.
 long NearestPose(const GroundTruth& gt, Timestamp t, Timestamp max_diff);
