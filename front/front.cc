@@ -4,15 +4,11 @@
 #include <chrono>
 #include <cmath>
 #include <ctime>
-#include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
 
-#include "front/initializer.h"
+#include "front/frame_tracker.h"
 #include "front/local_mapping.h"
-#include "front/matcher.h"
-#include "front/optimizer.h"
-#include "common/orb_extractor.h"
 
 namespace rumi {
 namespace {
@@ -36,36 +32,15 @@ void Release(std::vector<T>* v) {
 }  // namespace
 
 Front::Front(const FrontOptions& options, const PinholeCamera& camera, int64_t first_submap_id)
-    : options_(options), camera_(camera), hier_(options.hier) {
+    : options_(options), camera_(camera), initializer_(options_), inserter_(options_), hier_(options.hier) {
   first_submap_id_ = submap_id_ = first_submap_id;
   std::string why;
   if (!options_.Check(&why)) throw std::invalid_argument("front options: " + why);
-  const PinholeCameraOptions& c = camera_.options();
-  cam_.fx = c.fx; cam_.fy = c.fy; cam_.cx = c.cx; cam_.cy = c.cy;
-  cam_.num_levels = options_.orb.num_levels;
-  cam_.scale_factor = options_.orb.scale_factor;
-  for (int l = 0; l < cam_.num_levels; ++l) {
-    const double s = std::pow(cam_.scale_factor, l);
-    cam_.scales.push_back(s);
-    cam_.sigma2.push_back(s * s);
-    cam_.inv_sigma2.push_back(1.0 / (s * s));
-  }
-  intrinsics_ = {c.width, c.height, c.fx, c.fy, c.cx, c.cy};
   if (options_.orb.num_features == 0)
-    options_.orb.num_features = c.width * c.height > 640 * 480 ? 2000 : 1000;
-  extractor_ = std::make_unique<OrbExtractor>(options_.orb);
-  K_ = (cv::Mat_<double>(3, 3) << c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1);
-  dist_ = (cv::Mat_<double>(1, 5) << c.k1, c.k2, c.p1, c.p2, c.k3);
-  has_distortion_ = c.k1 != 0 || c.k2 != 0 || c.p1 != 0 || c.p2 != 0 || c.k3 != 0;
-  min_x_ = 0; min_y_ = 0; max_x_ = c.width; max_y_ = c.height;
-  if (has_distortion_) {  // bounds of the undistorted image
-    std::vector<cv::Point2f> corners = {{0, 0}, {float(c.width), 0}, {0, float(c.height)}, {float(c.width), float(c.height)}}, und;
-    cv::undistortPoints(corners, und, K_, dist_, cv::noArray(), K_);
-    min_x_ = std::min(und[0].x, und[2].x); max_x_ = std::max(und[1].x, und[3].x);
-    min_y_ = std::min(und[0].y, und[1].y); max_y_ = std::max(und[2].y, und[3].y);
-  }
+    options_.orb.num_features = camera.width() * camera.height() > 640 * 480 ? 2000 : 1000;
+  extractor_ = std::make_unique<FeatureExtractor>(options_.orb, camera_);
   map_ = std::make_unique<Map>();
-  mapper_ = std::make_unique<LocalMapper>(map_.get(), cam_, options_);
+  mapper_ = std::make_unique<LocalMapper>(map_.get(), camera_, pyramid(), options_);
   mapper_->Start();
 }
 
@@ -73,45 +48,8 @@ Front::~Front() {
   if (mapper_) mapper_->Stop();
 }
 
-std::shared_ptr<Features> Front::Extract(const cv::Mat& image) {
-  cv::Mat grey = image;
-  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
-  else if (image.channels() == 4) cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY);
-  if (grey.depth() != CV_8U) grey.convertTo(grey, CV_8U);
-  auto f = std::make_shared<Features>();
-  f->width = grey.cols;
-  f->height = grey.rows;
-  extractor_->Extract(grey, &f->keypoints, &f->descriptors);
-  f->un.resize(f->keypoints.size());
-  if (has_distortion_ && !f->keypoints.empty()) {
-    std::vector<cv::Point2f> pts(f->keypoints.size()), und;
-    for (size_t i = 0; i < pts.size(); ++i) pts[i] = f->keypoints[i].pt;
-    cv::undistortPoints(pts, und, K_, dist_, cv::noArray(), K_);
-    for (size_t i = 0; i < pts.size(); ++i) f->un[i] = {und[i].x, und[i].y};
-  } else {
-    for (size_t i = 0; i < f->keypoints.size(); ++i) f->un[i] = {f->keypoints[i].pt.x, f->keypoints[i].pt.y};
-  }
-  f->min_x = min_x_; f->min_y = min_y_; f->max_x = max_x_; f->max_y = max_y_;
-  f->BuildGrid(std::max(1, static_cast<int>((max_x_ - min_x_) / 10)), std::max(1, static_cast<int>((max_y_ - min_y_) / 10)));
-  return f;
-}
-
 void Front::AddPosePrior(Timestamp t, const Se3& T_wb) {
-  if (!poses_.empty() && t <= poses_.back().first) return;  // time order only
-  poses_.push_back({t, T_wb * options_.odometry_T_bc});  // camera poses from here on
-  while (poses_.size() > 100000) poses_.pop_front();
-}
-
-std::optional<Se3> Front::PoseAt(Timestamp t) const {
-  if (poses_.empty() || t < poses_.front().first || t > poses_.back().first) return std::nullopt;
-  auto it = std::lower_bound(poses_.begin(), poses_.end(), t,
-                             [](const auto& a, Timestamp b) { return a.first < b; });
-  if (it->first == t || it == poses_.begin()) return it->second;
-  const auto& a = *(it - 1);
-  const auto& b = *it;
-  const double s = double(t - a.first) / double(b.first - a.first);
-  const Eigen::Quaterniond q = a.second.rotation().slerp(s, b.second.rotation());
-  return Se3(q, (1 - s) * a.second.translation() + s * b.second.translation());
+  poses_.Add(t, T_wb * options_.odometry_T_bc);  // camera poses from here on
 }
 
 void Front::TrimFinished(size_t n) {
@@ -144,7 +82,7 @@ FrameRecord Front::Track(Timestamp t, const cv::Mat& image) {
   FrameTiming timing;
   timing.timestamp = t;
   if (image.empty()) throw std::invalid_argument("Front::Track: empty image");
-  auto f = Extract(image);
+  auto f = extractor_->Extract(image);
   {
     std::lock_guard<std::mutex> l(map_->mutex);
     ++map_->frame_counter;  // PurgeCulled's clock
@@ -174,7 +112,7 @@ FrameRecord Front::Track(Timestamp t, const cv::Mat& image) {
       // The map was already handed over on entering coarse: just re-initialise.
       spdlog::info("front: features dense again, leaving coarse state; building submap {}", submap_id_);
       state_ = TrackingState::kInitializing;
-      init_ref_.reset();
+      initializer_.Reset();
     }
   } else {
     switch (state_) {
@@ -222,7 +160,7 @@ FrameRecord Front::Track(Timestamp t, const cv::Mat& image) {
         for (auto it = submap_frames_.rbegin(); it != submap_frames_.rend(); ++it)
           if (it->rec.state == TrackingState::kTracking) { t_last = it->rec.timestamp; T_wc_last = it->rec.T_wc; break; }
         coarse_T_wc0_ = T_wc_last;
-        coarse_pose0_ = PoseAt(t_last);
+        coarse_pose0_ = poses_.At(t_last);
         FinishSubmap(true);
         state_ = TrackingState::kCoarse;
       }
@@ -252,7 +190,6 @@ FrameRecord Front::Track(Timestamp t, const cv::Mat& image) {
   timing.lock_wait_ms = lock_wait_ms_;
   timing.inliers = last_inliers_;
   timings_.push_back(timing);
-  if (callback_) callback_(rec, image);
   return rec;
 }
 
@@ -265,7 +202,7 @@ FrameRecord Front::MakeRecord() const {
     r.T_wc = cur_.T_cw.Inverse();
   } else if (state_ == TrackingState::kCoarse) {
     r.submap_id = submap_id_ - 1;  // the finished submap the pose is chained to
-    const auto p = PoseAt(cur_.timestamp);
+    const auto p = poses_.At(cur_.timestamp);
     r.T_wc = coarse_T_wc0_;
     if (p && coarse_pose0_) r.T_wc = coarse_T_wc0_ * (coarse_pose0_->Inverse() * *p);
   }
@@ -273,125 +210,37 @@ FrameRecord Front::MakeRecord() const {
 }
 
 void Front::Initialize() {
-  const Features& f = *cur_.f;
-  const double radius = options_.init_search_radius_frac * f.width;
-  if (!init_ref_ || cur_.id - init_ref_frame_ > options_.init_max_frames) {
-    init_ref_.reset();
-    if (static_cast<int>(f.size()) >= options_.init_min_matches) {
-      init_ref_ = cur_.f;
-      init_ref_t_ = cur_.timestamp;
-      init_ref_frame_ = cur_.id;
-      init_prev_matched_ = f.un;
-    }
-    return;
-  }
-  std::vector<int> m12;
-  const int n = SearchForInitialization(*init_ref_, f, &init_prev_matched_, radius, &m12);
-  if (n < options_.init_min_matches) {
-    init_ref_.reset();
-    if (static_cast<int>(f.size()) >= options_.init_min_matches) {
-      init_ref_ = cur_.f;
-      init_ref_t_ = cur_.timestamp;
-      init_ref_frame_ = cur_.id;
-      init_prev_matched_ = f.un;
-    }
-    return;
-  }
-  std::vector<Eigen::Vector2d> p1, p2;
-  std::vector<std::pair<int, int>> idx;
-  for (size_t i = 0; i < m12.size(); ++i) {
-    if (m12[i] < 0) continue;
-    p1.push_back(init_ref_->un[i]);
-    p2.push_back(f.un[m12[i]]);
-    idx.push_back({static_cast<int>(i), m12[i]});
-  }
-  TwoViewOptions tvo;
   const bool reinit = submap_id_ > first_submap_id_;  // a first map of this process can wait; a re-init cannot
-  const int min_points = reinit ? options_.reinit_min_triangulated : options_.init_min_triangulated;
-  tvo.min_triangulated = min_points;
-  tvo.min_parallax_deg = reinit ? options_.reinit_min_parallax_deg : options_.init_min_parallax_deg;
-  TwoViewResult r;
-  if (!ReconstructTwoView(p1, p2, cam_.K(), tvo, &r)) return;
-
-  // Build the initial map: two keyframes and the triangulated points.
+  if (!initializer_.Match(cur_, reinit, camera_)) return;
   std::lock_guard<std::mutex> lock(map_->mutex);
-  auto k0 = std::make_unique<KeyFrame>();
-  k0->timestamp = init_ref_t_;
-  k0->frame_id = init_ref_frame_;
-  k0->f = init_ref_;
-  k0->points.assign(init_ref_->size(), nullptr);
-  k0->fixed = true;
-  KeyFrame* kf0 = map_->AddKeyFrame(std::move(k0));
-  auto k1 = std::make_unique<KeyFrame>();
-  k1->timestamp = cur_.timestamp;
-  k1->frame_id = cur_.id;
-  k1->f = cur_.f;
-  k1->T_cw = r.T_21;
-  k1->points.assign(f.size(), nullptr);
-  KeyFrame* kf1 = map_->AddKeyFrame(std::move(k1));
-  for (size_t m = 0; m < idx.size(); ++m) {
-    if (!r.triangulated[m]) continue;
-    Landmark* p = map_->NewPoint(r.points[m], kf0);
-    Map::AddObservation(p, kf0, idx[m].first);
-    Map::AddObservation(p, kf1, idx[m].second);
-    Map::ComputeDescriptor(p);
-    Map::UpdateNormalAndDepth(p, cam_);
-  }
-  Map::UpdateConnections(kf0);
-  Map::UpdateConnections(kf1);
-  GlobalBa(map_.get(), cam_, 20);
-  const double median = kf0->MedianDepth();
-  const int tracked = kf1->TrackedPoints(1);
-  if (!(median > 0) || tracked < min_points) {
-    spdlog::debug("front: initial map rejected (median depth {}, {} points)", median, tracked);
-    for (auto& [id, p] : map_->points) Map::SetBad(p.get());
-    map_->keyframes.clear();
-    map_->points.clear();
-    init_ref_.reset();
-    return;
-  }
-  // Scale: median scene depth of the first keyframe = 1.
-  const double s = 1.0 / median;
-  kf1->T_cw.translation() *= s;
-  for (auto& [id, p] : map_->points) {
-    p->pos *= s;
-    Map::UpdateNormalAndDepth(p.get(), cam_);
-  }
-  cur_.T_cw = kf1->T_cw;
-  for (size_t i = 0; i < kf1->points.size(); ++i) cur_.points[i] = kf1->points[i];
+  InitialMap m;
+  if (!initializer_.Build(cur_, reinit, map_.get(), camera_, pyramid(), &m)) return;
+  cur_.T_cw = m.kf1->T_cw;
+  for (size_t i = 0; i < m.kf1->points.size(); ++i) cur_.points[i] = m.kf1->points[i];
   // Per-frame velocity from the motion spread over the initialisation gap.
-  const double gap = std::max<int64_t>(1, cur_.id - init_ref_frame_);
-  velocity_ = Se3::Exp(kf1->T_cw.Log() / gap);
-  velocity_dt_s_ = NsToSeconds(cur_.timestamp - init_ref_t_) / gap;
+  velocity_ = Se3::Exp(m.kf1->T_cw.Log() / static_cast<double>(m.gap));
+  velocity_dt_s_ = NsToSeconds(cur_.timestamp - m.kf0->timestamp) / static_cast<double>(m.gap);
   velocity_valid_ = true;
-  ref_kf_ = kf1;
-  last_kf_frame_ = cur_.id;
+  ref_kf_ = m.kf1;
+  inserter_.Reset(cur_.id, m.tracked);
   last_reloc_frame_ = cur_.id;  // wider local search for the next frames
   state_ = TrackingState::kTracking;
   kf_inserted_ = true;
-  last_inliers_ = tracked;
-  kf_peak_inliers_ = tracked;
+  last_inliers_ = m.tracked;
   // The reference frame now has a pose in the submap (it is keyframe 0):
   // its record in the submap says so (the per-frame log keeps what was known
   // live, initialising).
   for (FrameRel& fr : submap_frames_)
-    if (fr.rec.timestamp == kf0->timestamp) {
+    if (fr.rec.timestamp == m.kf0->timestamp) {
       fr.rec.state = TrackingState::kTracking;
-      fr.ref = kf0;
+      fr.ref = m.kf0;
       fr.T_c_ref = Se3();
     }
   spdlog::info("front: submap {} initialised ({}), {} points, parallax {:.1f} deg, RH {:.2f}, gap {} frames",
-               submap_id_, r.model, tracked, r.parallax_deg, r.score_ratio, static_cast<int>(gap));
-  if (pending_link_) {
-    pending_link_->to = submap_id_;
-    pending_link_->t_to = kf0->timestamp;
-    const auto a = PoseAt(pending_link_->t_from), b = PoseAt(kf0->timestamp);
-    if (a && b) { pending_link_->T_from_to = a->Inverse() * *b; pending_link_->valid = true; }
-    links_.push_back(*pending_link_);
-    pending_link_.reset();
-  }
-  mapper_->Push(kf0);
-  mapper_->Push(kf1);
+               submap_id_, m.two_view.model, m.tracked, m.two_view.parallax_deg, m.two_view.score_ratio,
+               static_cast<int>(m.gap));
+  mapper_->Push(m.kf0);
+  mapper_->Push(m.kf1);
   if (!options_.local_mapping_thread) {
     map_->mutex.unlock();
     mapper_->Drain();
@@ -411,11 +260,12 @@ bool Front::TrackCurrent() {
       if (!it->second->bad) { ref_kf_ = it->second.get(); break; }
   }
   bool ok = false;
-  if (velocity_valid_) ok = TrackWithMotionModel();
-  if (!ok) ok = TrackReferenceKeyFrame();
+  if (velocity_valid_)
+    ok = TrackWithMotionModel(&cur_, last_, velocity_, velocity_dt_s_, options_.motion_search_radius, camera_, pyramid());
+  if (!ok && ref_kf_) ok = TrackReferenceKeyFrame(&cur_, last_, *ref_kf_, camera_, pyramid());
   int inliers = 0;
   if (ok) {
-    inliers = TrackLocalMap();
+    inliers = TrackLocalMap(&cur_, map_.get(), &ref_kf_, cur_.id - last_reloc_frame_ < 3, options_, camera_, pyramid());
     const int need = cur_.id - last_reloc_frame_ < 10 ? std::max(options_.min_tracked_inliers, 50)
                                                        : options_.min_tracked_inliers;
     ok = inliers >= need;
@@ -432,156 +282,16 @@ bool Front::TrackCurrent() {
   // Outliers do not propagate to the next frame.
   for (size_t i = 0; i < cur_.points.size(); ++i)
     if (cur_.outlier[i]) { cur_.points[i] = nullptr; cur_.outlier[i] = false; }
-  kf_peak_inliers_ = std::max(kf_peak_inliers_, inliers);
-  if (NeedNewKeyFrame(inliers)) {
-    CreateKeyFrame();
+  inserter_.Tracked(inliers);
+  if (inserter_.Need(cur_, inliers, ref_kf_, *map_, *mapper_, frame_interval_s_)) {
+    ref_kf_ = inserter_.Insert(cur_, last_inliers_, map_.get(), mapper_.get());
+    kf_inserted_ = true;
     if (!options_.local_mapping_thread) {
       lock.unlock();
       mapper_->Drain();
     }
   }
   return true;
-}
-
-bool Front::TrackWithMotionModel() {
-  // Constant velocity in time: a short drop (up to 3 intervals) scales the
-  // predicted motion; over longer gaps extrapolation is worse than one
-  // interval's motion (seen on the synthetic `drop` sequence).
-  Se3 v = velocity_;
-  const double dt = NsToSeconds(cur_.timestamp - last_.timestamp);
-  if (velocity_dt_s_ > 0 && dt > 0 && std::abs(dt / velocity_dt_s_ - 1.0) > 0.2 && dt / velocity_dt_s_ <= 3.0)
-    v = Se3::Exp(velocity_.Log() * (dt / velocity_dt_s_));
-  cur_.T_cw = v * last_.T_cw;
-  cur_.Reset(cur_.f->size());
-  int n = SearchByProjection(&cur_, last_, cam_, options_.motion_search_radius, true);
-  if (n < 20) {
-    cur_.Reset(cur_.f->size());
-    n = SearchByProjection(&cur_, last_, cam_, 2 * options_.motion_search_radius, true);
-  }
-  if (n < 20) return false;
-  return OptimizePose(&cur_, cam_) >= 10;
-}
-
-bool Front::TrackReferenceKeyFrame() {
-  if (!ref_kf_) return false;
-  cur_.T_cw = last_.T_cw;
-  cur_.Reset(cur_.f->size());
-  // Without a vocabulary: wide projection windows with a ratio test, from the
-  // last pose (the camera has not moved far when the motion model failed).
-  int n = SearchKeyFramePoints(&cur_, *ref_kf_, cam_, 40.0, kDescHigh, 0.8);
-  n += SearchByProjection(&cur_, last_, cam_, 40.0, true);
-  if (n < 15) return false;
-  return OptimizePose(&cur_, cam_) >= 10;
-}
-
-int Front::TrackLocalMap() {
-  const int64_t tag = cur_.id;
-  // Keyframes sharing points with the frame, by votes.
-  std::map<KeyFrame*, int> votes;
-  for (size_t i = 0; i < cur_.points.size(); ++i) {
-    Landmark* p = cur_.points[i];
-    if (!p || p->bad || cur_.outlier[i]) continue;
-    for (auto& [k, idx] : p->obs) if (!k->bad) ++votes[k];
-  }
-  std::vector<std::pair<int, KeyFrame*>> ranked;
-  for (auto& [k, v] : votes) ranked.push_back({v, k});
-  std::sort(ranked.begin(), ranked.end(), [](auto& a, auto& b) { return a.first > b.first || (a.first == b.first && a.second->id > b.second->id); });
-  std::vector<KeyFrame*> local;
-  auto add = [&](KeyFrame* k) {
-    if (k->bad || k->local_for_frame == tag) return;
-    if (static_cast<int>(local.size()) >= options_.max_local_keyframes) return;
-    k->local_for_frame = tag;
-    local.push_back(k);
-  };
-  // The newest keyframes first: their young points are what keeps tracking
-  // alive while the view changes (they have few votes yet).
-  int newest = 0;
-  for (auto it = map_->keyframes.rbegin(); it != map_->keyframes.rend() && newest < 8; ++it) {
-    KeyFrame* k = it->second.get();
-    if (k->bad || std::abs(NsToSeconds(cur_.timestamp - k->timestamp)) >= options_.short_term_s) continue;
-    add(k);
-    ++newest;
-  }
-  for (auto& [v, k] : ranked) add(k);
-  // Short-term (|dt| < Th_t) and mid-term (|dp| < Th_p) subsets (paper 004, Formula 5).
-  const Eigen::Vector3d centre = -(cur_.T_cw.R().transpose() * cur_.T_cw.translation());
-  for (auto it = map_->keyframes.rbegin(); it != map_->keyframes.rend(); ++it) {
-    KeyFrame* k = it->second.get();
-    if (k->bad) continue;
-    if (std::abs(NsToSeconds(cur_.timestamp - k->timestamp)) < options_.short_term_s ||
-        (k->Centre() - centre).norm() < options_.mid_term_dist)
-      add(k);
-  }
-  const size_t first_level = local.size();
-  for (size_t i = 0; i < first_level; ++i)
-    for (KeyFrame* n : local[i]->BestCovisibles(10)) add(n);
-  if (!ranked.empty()) ref_kf_ = ranked.front().second;
-
-  // Local points not already matched.
-  for (size_t i = 0; i < cur_.points.size(); ++i) {
-    Landmark* p = cur_.points[i];
-    if (!p) continue;
-    if (p->bad) { cur_.points[i] = nullptr; continue; }
-    p->visible++;
-    p->last_frame_seen = tag;
-  }
-  std::vector<Landmark*> pts;
-  for (KeyFrame* k : local)
-    for (Landmark* p : k->points)
-      if (p && !p->bad && p->track_ref_frame != tag && p->last_frame_seen != tag) {
-        p->track_ref_frame = tag;
-        pts.push_back(p);
-      }
-  const double radius = options_.local_search_radius * (cur_.id - last_reloc_frame_ < 3 ? 3.0 : 1.0);
-  SearchLocalPoints(&cur_, pts, cam_, radius);
-  const int inliers = OptimizePose(&cur_, cam_);
-  for (size_t i = 0; i < cur_.points.size(); ++i) {
-    Landmark* p = cur_.points[i];
-    if (p && !cur_.outlier[i]) p->found++;
-  }
-  return inliers;
-}
-
-bool Front::NeedNewKeyFrame(int inliers) {
-  if (mapper_->QueueSize() > 2) return false;
-  if (!ref_kf_) return true;
-  const int nkf = map_->NumGoodKeyFrames();
-  const int ref_tracked = ref_kf_->TrackedPoints(nkf <= 2 ? 2 : 3);
-  const int64_t since = cur_.id - last_kf_frame_;
-  const double fps = options_.fps > 0 ? options_.fps : (frame_interval_s_ > 0 ? 1.0 / frame_interval_s_ : 10.0);
-  const bool c1a = since >= static_cast<int64_t>(std::round(fps));
-  const bool c1b = mapper_->Idle();
-  // The reference count only includes points seen by >= 3 keyframes, so a
-  // young reference (just inserted, its points freshly triangulated) has few
-  // and tracking could decay through a whole turn with no keyframe (seen on
-  // `smooth`: inliers 309 -> 134 over 0.8 s, then a scale collapse). Hence
-  // also: tracking has weakened against what the last keyframe tracked, and,
-  // much weaker, a keyframe even while mapping is busy. The peak since the
-  // last keyframe is the baseline: the keyframe's own frame sees few points,
-  // the next ones also the points triangulated from it.
-  const bool weak = inliers < options_.kf_weak_ratio * kf_peak_inliers_;
-  const bool c1c = inliers < 0.5 * options_.kf_weak_ratio * kf_peak_inliers_;
-  const bool c2 = (inliers < options_.kf_tracked_ratio * ref_tracked || weak) && inliers > 15;
-  return (c1a || c1b || c1c) && c2;
-}
-
-void Front::CreateKeyFrame() {
-  auto k = std::make_unique<KeyFrame>();
-  k->timestamp = cur_.timestamp;
-  k->frame_id = cur_.id;
-  k->f = cur_.f;
-  k->T_cw = cur_.T_cw;
-  k->points.assign(cur_.f->size(), nullptr);
-  KeyFrame* kf = map_->AddKeyFrame(std::move(k));
-  for (size_t i = 0; i < cur_.points.size(); ++i) {
-    Landmark* p = cur_.points[i];
-    if (p && !p->bad && !p->obs.count(kf)) Map::AddObservation(p, kf, static_cast<int>(i));
-  }
-  ref_kf_ = kf;
-  last_kf_frame_ = cur_.id;
-  kf_peak_inliers_ = last_inliers_;
-  kf_inserted_ = true;
-  mapper_->Push(kf);
 }
 
 int64_t Front::current_submap_keyframes() const {
@@ -601,56 +311,13 @@ Front::MapCounts Front::current_map_counts() const {
 
 bool Front::Relocalize() {
   std::unique_lock<std::mutex> lock(map_->mutex);
-  // Candidates: the 6 newest keyframes of this submap, two per frame in turn
-  // (bounded per-frame cost while lost).
-  std::vector<KeyFrame*> recent;
-  for (auto it = map_->keyframes.rbegin(); it != map_->keyframes.rend() && recent.size() < 6; ++it)
-    if (!it->second->bad) recent.push_back(it->second.get());
-  std::vector<KeyFrame*> cands;
-  for (size_t k = 0; k < 2 && k < recent.size(); ++k) cands.push_back(recent[(reloc_cursor_ + k) % recent.size()]);
-  reloc_cursor_ += 2;
-  const Features& f = *cur_.f;
-  for (KeyFrame* kf : cands) {
-    std::vector<int> kidx;
-    for (size_t i = 0; i < kf->points.size(); ++i)
-      if (kf->points[i] && !kf->points[i]->bad) kidx.push_back(static_cast<int>(i));
-    if (kidx.size() < 15) continue;
-    cv::Mat kd(static_cast<int>(kidx.size()), 32, CV_8U);
-    for (size_t i = 0; i < kidx.size(); ++i) kf->f->descriptors.row(kidx[i]).copyTo(kd.row(static_cast<int>(i)));
-    const auto m = MatchBruteForce(f.descriptors, kd, 64, 0.8);
-    if (m.size() < 15) continue;
-    std::vector<cv::Point3f> obj;
-    std::vector<cv::Point2f> img;
-    for (auto [i, j] : m) {
-      const Eigen::Vector3d X = kf->points[kidx[j]]->pos;
-      obj.emplace_back(X.x(), X.y(), X.z());
-      img.emplace_back(f.un[i].x(), f.un[i].y());
-    }
-    cv::Mat rvec, tvec;
-    std::vector<int> inl;
-    if (!cv::solvePnPRansac(obj, img, K_, cv::noArray(), rvec, tvec, false, 200, 4.0f, 0.99, inl, cv::SOLVEPNP_EPNP) ||
-        inl.size() < 12)
-      continue;
-    cv::Mat Rcv;
-    cv::Rodrigues(rvec, Rcv);
-    Eigen::Matrix3d R;
-    for (int r = 0; r < 3; ++r) for (int c = 0; c < 3; ++c) R(r, c) = Rcv.at<double>(r, c);
-    cur_.T_cw = Se3(R, Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)));
-    cur_.Reset(f.size());
-    for (int k : inl) cur_.points[m[k].first] = kf->points[kidx[m[k].second]];
-    int n = OptimizePose(&cur_, cam_);
-    if (n < 10) continue;
-    for (size_t i = 0; i < cur_.points.size(); ++i) if (cur_.outlier[i]) cur_.points[i] = nullptr;
-    if (n < options_.reloc_min_inliers) {
-      SearchKeyFramePoints(&cur_, *kf, cam_, 10.0, kDescHigh, 0.9);
-      n = OptimizePose(&cur_, cam_);
-    }
-    if (n < options_.reloc_min_inliers / 2) continue;
+  for (KeyFrame* kf : relocalizer_.NextCandidates(*map_)) {
+    if (!relocalizer_.Localize(&cur_, kf, options_.reloc_min_inliers, camera_, pyramid())) continue;
     ref_kf_ = kf;
     last_reloc_frame_ = cur_.id;
-    const int inliers = TrackLocalMap();
+    const int inliers = TrackLocalMap(&cur_, map_.get(), &ref_kf_, true, options_, camera_, pyramid());
     last_inliers_ = inliers;
-    kf_peak_inliers_ = inliers;
+    inserter_.Relocalised(inliers);
     if (inliers < options_.reloc_min_inliers) continue;
     for (size_t i = 0; i < cur_.points.size(); ++i)
       if (cur_.outlier[i]) { cur_.points[i] = nullptr; cur_.outlier[i] = false; }
@@ -659,7 +326,7 @@ bool Front::Relocalize() {
     velocity_valid_ = false;
     return true;
   }
-  cur_.Reset(f.size());
+  cur_.Reset(cur_.f->size());
   return false;
 }
 
@@ -668,22 +335,9 @@ void Front::FinishSubmap(bool keep) {
   {
     std::lock_guard<std::mutex> l(map_->mutex);
     if (keep && map_->NumGoodKeyFrames() >= 2) {
-      Submap s = map_->Export(submap_id_, intrinsics_);
-      for (const FrameRel& fr : submap_frames_) {
-        FrameRecord r = fr.rec;
-        if (r.state == TrackingState::kTracking && fr.ref) r.T_wc = (fr.T_c_ref * fr.ref->PoseFollowingParents()).Inverse();
-        s.frames.push_back(r);
-      }
-      AttachOdometry(&s);
+      Submap s = ExportCurrent();
       spdlog::info("front: submap {} finished: {} keyframes, {} points, {} frames", s.id, s.keyframes.size(),
                    s.points.size(), s.frames.size());
-      // Link to the next submap (completed when it initialises).
-      SubmapLink link;
-      link.from = s.id;
-      link.t_from = s.frames.empty() ? 0 : s.frames.back().timestamp;
-      for (auto it = s.frames.rbegin(); it != s.frames.rend(); ++it)
-        if (it->state == TrackingState::kTracking) { link.t_from = it->timestamp; break; }
-      pending_link_ = link;
       finished_.push_back(std::move(s));
     }
   }
@@ -692,10 +346,10 @@ void Front::FinishSubmap(bool keep) {
   velocity_valid_ = false;
   last_.points.clear();
   last_.outlier.clear();
-  init_ref_.reset();
+  initializer_.Reset();
   mapper_.reset();
   map_ = std::make_unique<Map>();
-  mapper_ = std::make_unique<LocalMapper>(map_.get(), cam_, options_);
+  mapper_ = std::make_unique<LocalMapper>(map_.get(), camera_, pyramid(), options_);
   mapper_->Start();
   ++submap_id_;
   cur_.points.assign(cur_.f ? cur_.f->size() : 0, nullptr);
@@ -716,21 +370,20 @@ void Front::Finish() {
 
 Submap Front::CurrentSubmap() {
   std::lock_guard<std::mutex> l(map_->mutex);
-  Submap s = map_->Export(submap_id_, intrinsics_);
+  return ExportCurrent();
+}
+
+Submap Front::ExportCurrent() const {
+  Submap s = map_->Export(submap_id_, camera_);
   for (const FrameRel& fr : submap_frames_) {
     FrameRecord r = fr.rec;
     if (r.state == TrackingState::kTracking && fr.ref) r.T_wc = (fr.T_c_ref * fr.ref->PoseFollowingParents()).Inverse();
     s.frames.push_back(r);
   }
-  AttachOdometry(&s);
+  if (!poses_.empty())
+    for (const FrameRecord& r : s.frames)
+      if (const auto T = poses_.At(r.timestamp)) s.odometry.push_back({r.timestamp, *T});
   return s;
-}
-
-void Front::AttachOdometry(Submap* s) const {
-  s->odometry.clear();
-  if (poses_.empty()) return;
-  for (const FrameRecord& r : s->frames)
-    if (const auto T = PoseAt(r.timestamp)) s->odometry.push_back({r.timestamp, *T});
 }
 
 }  // namespace rumi

@@ -4,10 +4,14 @@
 // (tracking loss -> short relocalisation attempt -> new submap), and the
 // optional hierarchical fine/coarse mode (paper 000).
 //
+// Front is the tracking state machine and the submaps' bookkeeping; the steps
+// are modules (as stella_vslam's module/): FeatureExtractor (ORB, undistorted
+// once), MapInitializer (two-view first map), frame_tracker.h (motion model,
+// reference keyframe, local map), KeyframeInserter (policy and insertion),
+// Relocalizer, LocalMapper (mapping thread).
+//
 // Realtime rule: Track() touches no disk and only the map mutex, which the
 // mapping thread holds for short bounded steps (BA is solved unlocked).
-#include <deque>
-#include <functional>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -15,14 +19,18 @@
 #include <opencv2/core.hpp>
 
 #include "common/camera.h"
+#include "common/pose_buffer.h"
 #include "common/submap.h"
+#include "front/feature_extractor.h"
 #include "front/front_options.h"
 #include "front/hierarchical.h"
+#include "front/keyframe_inserter.h"
 #include "front/map.h"
+#include "front/map_initializer.h"
+#include "front/relocalizer.h"
 
 namespace rumi {
 
-class OrbExtractor;
 class LocalMapper;
 
 struct FrameTiming {
@@ -33,24 +41,8 @@ struct FrameTiming {
   int keypoints = 0, inliers = 0;
 };
 
-// Relative pose between consecutive submaps from the external pose source:
-// the camera motion (the body's through odometry_T_bc) from the last tracked
-// frame of `from` to the first keyframe of `to` (metric, pose-source frame).
-// valid=false without poses.
-struct SubmapLink {
-  int64_t from = -1, to = -1;
-  Timestamp t_from = 0, t_to = 0;
-  Se3 T_from_to;
-  bool valid = false;
-};
-
 class Front {
  public:
-  // Sampler integration point (front/sampler.h): called at the end of every
-  // Track() with the record and the input image, in the tracking thread;
-  // must be cheap and non-blocking.
-  using FrameCallback = std::function<void(const FrameRecord&, const cv::Mat&)>;
-
   // Submap ids count from first_submap_id (rumid: unique across restarts).
   Front(const FrontOptions& options, const PinholeCamera& camera, int64_t first_submap_id = 0);
   ~Front();
@@ -66,7 +58,6 @@ class Front {
   // poses at a submap's frames travel with it (Submap::odometry). Call from
   // the tracking thread, in time order, before Track() of the frames it covers.
   void AddPosePrior(Timestamp t, const Se3& T_wb);
-  void SetFrameCallback(FrameCallback cb) { callback_ = std::move(cb); }
 
   // Finishes the current submap (end of sequence); idempotent.
   void Finish();
@@ -81,7 +72,6 @@ class Front {
   // Keeps at most the last 2 x frames per-frame records and timings (0: all).
   // The pipeline's front needs only the newest (the publisher logs each).
   void LimitHistory(size_t frames) { history_limit_ = frames; }
-  const std::vector<SubmapLink>& links() const { return links_; }
   const std::vector<FrameRecord>& records() const { return records_; }
   const std::vector<FrameTiming>& timings() const { return timings_; }
   int64_t current_submap_id() const { return submap_id_; }
@@ -95,30 +85,23 @@ class Front {
   const FrontOptions& options() const { return options_; }
 
  private:
-  std::shared_ptr<Features> Extract(const cv::Mat& grey);
   void Initialize();
   bool TrackCurrent();
-  bool TrackWithMotionModel();
-  bool TrackReferenceKeyFrame();
-  int TrackLocalMap();
   bool Relocalize();
-  bool NeedNewKeyFrame(int inliers);
-  void CreateKeyFrame();
   void StartNewSubmap(bool keep);
   void FinishSubmap(bool keep);
-  std::optional<Se3> PoseAt(Timestamp t) const;
-  // The pose source at the submap's frames (the manager's odometry merge).
-  void AttachOdometry(Submap* s) const;
+  // The current submap with its frames, each posed against its reference
+  // keyframe as it is now, and the pose source at them (caller holds the map mutex).
+  Submap ExportCurrent() const;
   FrameRecord MakeRecord() const;
+  const ScalePyramid& pyramid() const { return extractor_->pyramid(); }
 
   FrontOptions options_;
   PinholeCamera camera_;
-  FrontCamera cam_;
-  CameraIntrinsics intrinsics_;
-  std::unique_ptr<OrbExtractor> extractor_;
-  cv::Mat K_, dist_;
-  bool has_distortion_ = false;
-  double min_x_ = 0, min_y_ = 0, max_x_ = 0, max_y_ = 0;
+  std::unique_ptr<FeatureExtractor> extractor_;
+  MapInitializer initializer_;
+  KeyframeInserter inserter_;
+  Relocalizer relocalizer_;
 
   std::unique_ptr<Map> map_;
   std::unique_ptr<LocalMapper> mapper_;
@@ -134,20 +117,12 @@ class Front {
   Se3 velocity_;  // T_cur_last
   double velocity_dt_s_ = 0;  // interval the velocity was measured over
   KeyFrame* ref_kf_ = nullptr;
-  int64_t last_kf_frame_ = 0, last_reloc_frame_ = -100;
+  int64_t last_reloc_frame_ = -100;
   Timestamp lost_since_ = 0;
   int last_inliers_ = 0;
-  int kf_peak_inliers_ = 0;  // most inliers of a frame since the last keyframe
   bool kf_inserted_ = false;
-  size_t reloc_cursor_ = 0;
   double frame_interval_s_ = 0;
   double lock_wait_ms_ = 0;
-
-  // Initialisation.
-  std::shared_ptr<const Features> init_ref_;
-  Timestamp init_ref_t_ = 0;
-  int64_t init_ref_frame_ = 0;
-  std::vector<Eigen::Vector2d> init_prev_matched_;
 
   // Frames of the current submap and their poses relative to a keyframe,
   // so the exported trajectory follows later BA corrections.
@@ -158,15 +133,12 @@ class Front {
   size_t trimmed_ = 0;  // finished_[0, trimmed_) hold poses only
   int largest_trimmed_ = -1;  // the trimmed submap that keeps its frame records
   size_t largest_trimmed_tracked_ = 0;
-  std::vector<SubmapLink> links_;
-  std::optional<SubmapLink> pending_link_;
   std::vector<FrameRecord> records_;
   std::vector<FrameTiming> timings_;
   size_t history_limit_ = 0;
-  std::deque<std::pair<Timestamp, Se3>> poses_;
+  PoseBuffer poses_{100000};  // the pose source, camera poses
   Se3 coarse_T_wc0_;
   std::optional<Se3> coarse_pose0_;
-  FrameCallback callback_;
   bool finished_all_ = false;
 };
 

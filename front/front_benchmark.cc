@@ -41,16 +41,12 @@ BENCHMARK(BM_OrbExtract)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond);
 
 void BM_OptimizePose(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
-  FrontCamera cam;
-  cam.fx = cam.fy = 500;
-  cam.cx = 320;
-  cam.cy = 240;
-  for (int l = 0; l < 8; ++l) {
-    const double s = std::pow(1.2, l);
-    cam.scales.push_back(s);
-    cam.sigma2.push_back(s * s);
-    cam.inv_sigma2.push_back(1 / (s * s));
-  }
+  PinholeCameraOptions co;
+  co.fx = co.fy = 500;
+  co.cx = 320;
+  co.cy = 240;
+  const PinholeCamera cam(co);
+  const ScalePyramid pyr(8, 1.2);
   std::mt19937 rng(1);
   std::uniform_real_distribution<double> u(-2, 2), z(3, 10);
   std::normal_distribution<double> noise(0, 1);
@@ -60,7 +56,7 @@ void BM_OptimizePose(benchmark::State& state) {
   for (int i = 0; i < n; ++i) {
     auto p = std::make_unique<Landmark>();
     p->pos = Eigen::Vector3d(u(rng), u(rng), z(rng));
-    const Eigen::Vector2d px = cam.Project(truth * p->pos) + Eigen::Vector2d(noise(rng), noise(rng));
+    const Eigen::Vector2d px = ProjectUndistorted(cam, truth * p->pos) + Eigen::Vector2d(noise(rng), noise(rng));
     f->un.push_back(px);
     cv::KeyPoint k;
     k.octave = 0;
@@ -73,7 +69,7 @@ void BM_OptimizePose(benchmark::State& state) {
     fr.Reset(n);
     for (int i = 0; i < n; ++i) fr.points[i] = pts[i].get();
     fr.T_cw = Se3();
-    benchmark::DoNotOptimize(OptimizePose(&fr, cam));
+    benchmark::DoNotOptimize(OptimizePose(&fr, cam, pyr));
   }
 }
 BENCHMARK(BM_OptimizePose)->Arg(300)->Arg(1000)->Unit(benchmark::kMicrosecond);

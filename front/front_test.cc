@@ -60,22 +60,16 @@ TEST(Front, TracksKittiStretch) {
   auto seq = LoadKitti(60);
   if (!seq) GTEST_SKIP() << "KITTI excerpt not found";
   Front front(SyncOptions(), seq->camera);
-  int callbacks = 0;
-  front.SetFrameCallback([&](const FrameRecord& r, const cv::Mat& img) {
-    ++callbacks;
-    EXPECT_FALSE(img.empty());
-    EXPECT_GE(r.submap_id, 0);
-  });
   int tracked = 0, first_tracked = -1;
   for (size_t i = 0; i < seq->frames.size(); ++i) {
     const FrameRecord r = front.Track(seq->frames[i].timestamp, seq->frames[i].image);
     EXPECT_EQ(r.timestamp, seq->frames[i].timestamp);
+    EXPECT_GE(r.submap_id, 0);
     if (r.state == TrackingState::kTracking) {
       ++tracked;
       if (first_tracked < 0) first_tracked = static_cast<int>(i);
     }
   }
-  EXPECT_EQ(callbacks, 60);
   EXPECT_GE(first_tracked, 0);
   EXPECT_LE(first_tracked, 10);  // initialises within the first second
   EXPECT_GE(tracked, 0.9 * 60);

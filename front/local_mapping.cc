@@ -18,8 +18,8 @@ double CpuMs() {
 }
 }  // namespace
 
-LocalMapper::LocalMapper(Map* map, const FrontCamera& cam, const FrontOptions& o)
-    : map_(map), cam_(cam), o_(o) {}
+LocalMapper::LocalMapper(Map* map, const PinholeCamera& cam, const ScalePyramid& pyr, const FrontOptions& o)
+    : map_(map), cam_(cam), pyr_(pyr), o_(o) {}
 
 LocalMapper::~LocalMapper() { Stop(); }
 
@@ -91,7 +91,7 @@ void LocalMapper::Process(KeyFrame* kf) {
     for (size_t i = 0; i < kf->points.size(); ++i) {
       Landmark* p = kf->points[i];
       if (!p || p->bad) continue;
-      Map::UpdateNormalAndDepth(p, cam_);
+      Map::UpdateNormalAndDepth(p, pyr_);
       Map::ComputeDescriptor(p);
     }
     Map::UpdateConnections(kf);
@@ -130,9 +130,9 @@ void LocalMapper::Process(KeyFrame* kf) {
   }
   c_ba = CpuMs();
   if (!pb.obs.empty()) {
-    if (SolveLocalBa(&pb, cam_, o_.local_ba_iterations, o_.local_ba_max_time_s, forced ? &stop_ : &abort_ba_)) {
+    if (SolveLocalBa(&pb, cam_, pyr_, o_.local_ba_iterations, o_.local_ba_max_time_s, forced ? &stop_ : &abort_ba_)) {
       std::lock_guard<std::mutex> l(map_->mutex);
-      ApplyLocalBa(pb, cam_);
+      ApplyLocalBa(pb, cam_, pyr_);
     }
   }
   c_ba = CpuMs() - c_ba;
@@ -177,7 +177,7 @@ void LocalMapper::Triangulate(KeyFrame* kf) {
       if (k != kf && !k->bad && std::find(neigh.begin(), neigh.end(), k) == neigh.end()) neigh.push_back(k);
     }
   }
-  const double ratio_factor = 1.5 * cam_.scale_factor;
+  const double ratio_factor = 1.5 * pyr_.scale_factor;
   int done = 0;
   for (KeyFrame* k2 : neigh) {
     // Behind (keyframes queued): stop early, but not before a few neighbours,
@@ -190,7 +190,7 @@ void LocalMapper::Triangulate(KeyFrame* kf) {
     const Eigen::Vector3d O1 = kf->Centre(), O2 = k2->Centre();
     const double baseline = (O2 - O1).norm();
     if (baseline / k2->MedianDepth() < 0.01) continue;
-    const auto pairs = SearchForTriangulation(*kf, *k2, cam_);
+    const auto pairs = SearchForTriangulation(*kf, *k2, cam_, pyr_);
     const Eigen::Matrix3d R1 = kf->T_cw.R(), R2 = k2->T_cw.R();
     const Eigen::Vector3d t1 = kf->T_cw.translation(), t2 = k2->T_cw.translation();
     Eigen::Matrix<double, 3, 4> P1, P2;
@@ -198,7 +198,7 @@ void LocalMapper::Triangulate(KeyFrame* kf) {
     P2 << R2, t2;
     for (auto [i1, i2] : pairs) {
       if (kf->points[i1] || k2->points[i2]) continue;
-      const Eigen::Vector3d r1 = cam_.Ray(kf->f->un[i1]), r2 = cam_.Ray(k2->f->un[i2]);
+      const Eigen::Vector3d r1 = UndistortedRay(cam_, kf->f->un[i1]), r2 = UndistortedRay(cam_, k2->f->un[i2]);
       const double cos_par = (R1.transpose() * r1).normalized().dot((R2.transpose() * r2).normalized());
       if (cos_par <= 0 || cos_par > 0.9998) continue;
       const Eigen::Vector3d X = TriangulateDlt(P1, P2, r1.head<2>(), r2.head<2>());
@@ -206,16 +206,16 @@ void LocalMapper::Triangulate(KeyFrame* kf) {
       const Eigen::Vector3d x1 = R1 * X + t1, x2 = R2 * X + t2;
       if (x1.z() <= 0 || x2.z() <= 0) continue;
       const int l1 = kf->f->keypoints[i1].octave, l2 = k2->f->keypoints[i2].octave;
-      if ((cam_.Project(x1) - kf->f->un[i1]).squaredNorm() * cam_.inv_sigma2[l1] > 5.991) continue;
-      if ((cam_.Project(x2) - k2->f->un[i2]).squaredNorm() * cam_.inv_sigma2[l2] > 5.991) continue;
+      if ((ProjectUndistorted(cam_, x1) - kf->f->un[i1]).squaredNorm() * pyr_.inv_sigma2[l1] > 5.991) continue;
+      if ((ProjectUndistorted(cam_, x2) - k2->f->un[i2]).squaredNorm() * pyr_.inv_sigma2[l2] > 5.991) continue;
       const double d1 = (X - O1).norm(), d2 = (X - O2).norm();
-      const double ratio_dist = d2 / d1, ratio_oct = cam_.scales[l1] / cam_.scales[l2];
+      const double ratio_dist = d2 / d1, ratio_oct = pyr_.scales[l1] / pyr_.scales[l2];
       if (ratio_dist * ratio_factor < ratio_oct || ratio_dist > ratio_oct * ratio_factor) continue;
       Landmark* p = map_->NewPoint(X, kf);
       Map::AddObservation(p, kf, i1);
       Map::AddObservation(p, k2, i2);
       Map::ComputeDescriptor(p);
-      Map::UpdateNormalAndDepth(p, cam_);
+      Map::UpdateNormalAndDepth(p, pyr_);
       recent_.push_back(p);
     }
   }
@@ -234,18 +234,18 @@ void LocalMapper::FuseNeighbours(KeyFrame* kf) {
   targets.insert(targets.end(), second.begin(), second.end());
   std::vector<Landmark*> own;
   for (Landmark* p : kf->points) if (p && !p->bad) own.push_back(p);
-  for (KeyFrame* k : targets) if (!k->bad) Fuse(k, own, cam_, 3.0);
+  for (KeyFrame* k : targets) if (!k->bad) Fuse(k, own, cam_, pyr_, 3.0);
   std::vector<Landmark*> theirs;
   for (KeyFrame* k : targets)
     for (Landmark* p : k->points)
       if (p && !p->bad && !p->obs.count(kf)) theirs.push_back(p);
   std::sort(theirs.begin(), theirs.end());
   theirs.erase(std::unique(theirs.begin(), theirs.end()), theirs.end());
-  Fuse(kf, theirs, cam_, 3.0);
+  Fuse(kf, theirs, cam_, pyr_, 3.0);
   for (Landmark* p : kf->points) {
     if (!p || p->bad) continue;
     Map::ComputeDescriptor(p);
-    Map::UpdateNormalAndDepth(p, cam_);
+    Map::UpdateNormalAndDepth(p, pyr_);
   }
   Map::UpdateConnections(kf);
 }

@@ -18,7 +18,7 @@ namespace rumi {
 
 class LocalMapper {
  public:
-  LocalMapper(Map* map, const FrontCamera& cam, const FrontOptions& o);
+  LocalMapper(Map* map, const PinholeCamera& cam, const ScalePyramid& pyr, const FrontOptions& o);
   ~LocalMapper();
   void Start();           // starts the thread (no-op when inline)
   void Stop();            // aborts current work and joins
@@ -38,7 +38,8 @@ class LocalMapper {
   void CullKeyFrames(KeyFrame* kf);
 
   Map* map_;
-  FrontCamera cam_;
+  PinholeCamera cam_;
+  ScalePyramid pyr_;
   FrontOptions o_;
   mutable std::mutex qm_;
   std::condition_variable cv_;

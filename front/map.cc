@@ -41,11 +41,20 @@ std::vector<int> Features::InArea(double x, double y, double r, int min_level, i
   return out;
 }
 
-int Landmark::PredictLevel(double dist, const FrontCamera& cam) const {
+ScalePyramid::ScalePyramid(int levels, double factor) : num_levels(levels), scale_factor(factor) {
+  for (int l = 0; l < levels; ++l) {
+    const double s = std::pow(factor, l);
+    scales.push_back(s);
+    sigma2.push_back(s * s);
+    inv_sigma2.push_back(1.0 / (s * s));
+  }
+}
+
+int Landmark::PredictLevel(double dist, const ScalePyramid& pyr) const {
   if (dist <= 0) return 0;
   const double ratio = max_dist / dist;
-  int l = static_cast<int>(std::ceil(std::log(ratio) / std::log(cam.scale_factor)));
-  return std::clamp(l, 0, cam.num_levels - 1);
+  int l = static_cast<int>(std::ceil(std::log(ratio) / std::log(pyr.scale_factor)));
+  return std::clamp(l, 0, pyr.num_levels - 1);
 }
 
 std::vector<KeyFrame*> KeyFrame::BestCovisibles(int n) const {
@@ -70,8 +79,14 @@ double KeyFrame::MedianDepth() const {
   return z[z.size() / 2];
 }
 
-KeyFrame* Map::AddKeyFrame(std::unique_ptr<KeyFrame> kf) {
+KeyFrame* Map::NewKeyFrame(Timestamp t, int64_t frame_id, std::shared_ptr<const Features> f, const Se3& T_cw) {
+  auto kf = std::make_unique<KeyFrame>();
   kf->id = next_kf_id_++;
+  kf->timestamp = t;
+  kf->frame_id = frame_id;
+  kf->T_cw = T_cw;
+  kf->points.assign(f->size(), nullptr);
+  kf->f = std::move(f);
   KeyFrame* raw = kf.get();
   keyframes[raw->id] = std::move(kf);
   return raw;
@@ -192,7 +207,7 @@ void Map::Replace(Landmark* p, Landmark* q) {
   ComputeDescriptor(q);
 }
 
-void Map::UpdateNormalAndDepth(Landmark* p, const FrontCamera& cam) {
+void Map::UpdateNormalAndDepth(Landmark* p, const ScalePyramid& pyr) {
   if (p->bad || p->obs.empty() || !p->ref_kf) return;
   Eigen::Vector3d n = Eigen::Vector3d::Zero();
   for (auto& [kf, idx] : p->obs) n += (p->pos - kf->Centre()).normalized();
@@ -201,8 +216,8 @@ void Map::UpdateNormalAndDepth(Landmark* p, const FrontCamera& cam) {
   if (it == p->obs.end()) return;
   const double dist = (p->pos - p->ref_kf->Centre()).norm();
   const int level = p->ref_kf->f->keypoints[it->second].octave;
-  p->max_dist = dist * cam.scales[level];
-  p->min_dist = p->max_dist / cam.scales[cam.num_levels - 1];
+  p->max_dist = dist * pyr.scales[level];
+  p->min_dist = p->max_dist / pyr.scales[pyr.num_levels - 1];
 }
 
 void Map::ComputeDescriptor(Landmark* p) {
@@ -258,11 +273,11 @@ void Map::UpdateConnections(KeyFrame* kf) {
   for (auto& [o, w] : kf->covis) order(o);
 }
 
-Submap Map::Export(int64_t submap_id, const CameraIntrinsics& cam) const {
+Submap Map::Export(int64_t submap_id, const PinholeCamera& cam) const {
   Submap s;
   s.id = submap_id;
   s.source = SubmapSource::kFront;
-  s.camera = cam;
+  s.camera = {cam.width(), cam.height(), cam.fx(), cam.fy(), cam.cx(), cam.cy()};
   std::map<const Landmark*, bool> exported;
   for (const auto& [id, p] : points) exported[p.get()] = !p->bad && p->obs.size() >= 2;
   for (const auto& [id, kf] : keyframes) {

@@ -13,6 +13,7 @@
 #include <set>
 #include <vector>
 
+#include "common/camera.h"
 #include "common/geometry.h"
 #include "common/submap.h"
 #include "common/timestamp.h"
@@ -42,22 +43,31 @@ struct Features {
   bool InImage(double x, double y) const { return x >= min_x && x < max_x && y >= min_y && y < max_y; }
 };
 
-// Camera model and pyramid constants shared by the front's parts.
-struct FrontCamera {
-  double fx = 0, fy = 0, cx = 0, cy = 0;
-  int num_levels = 8;
+// The ORB pyramid's constants per level: scale s^l, s^2l and its inverse
+// (projection windows, reprojection weights, scale-invariance ranges).
+struct ScalePyramid {
+  ScalePyramid() = default;
+  ScalePyramid(int levels, double factor);
+  int num_levels = 0;
   double scale_factor = 1.2;
   std::vector<double> scales, sigma2, inv_sigma2;
-  Eigen::Vector2d Project(const Eigen::Vector3d& p) const {
-    return {fx * p.x() / p.z() + cx, fy * p.y() / p.z() + cy};
-  }
-  Eigen::Vector3d Ray(const Eigen::Vector2d& u) const { return {(u.x() - cx) / fx, (u.y() - cy) / fy, 1.0}; }
-  Eigen::Matrix3d K() const {
-    Eigen::Matrix3d k;
-    k << fx, 0, cx, 0, fy, cy, 0, 0, 1;
-    return k;
-  }
 };
+
+// The front's geometry is the camera's pinhole K alone: keypoints are
+// undistorted once, at extraction (front/feature_extractor.h), so projections
+// land on undistorted pixels. The caller checks z > 0.
+inline Eigen::Vector2d ProjectUndistorted(const PinholeCamera& c, const Eigen::Vector3d& p) {
+  return {c.fx() * p.x() / p.z() + c.cx(), c.fy() * p.y() / p.z() + c.cy()};
+}
+// Undistorted pixel -> unit-depth ray.
+inline Eigen::Vector3d UndistortedRay(const PinholeCamera& c, const Eigen::Vector2d& u) {
+  return {(u.x() - c.cx()) / c.fx(), (u.y() - c.cy()) / c.fy(), 1.0};
+}
+inline Eigen::Matrix3d PinholeMatrix(const PinholeCamera& c) {
+  Eigen::Matrix3d k;
+  k << c.fx(), 0, c.cx(), 0, c.fy(), c.cy(), 0, 0, 1;
+  return k;
+}
 
 struct Landmark {
   int64_t id = -1;
@@ -75,7 +85,7 @@ struct Landmark {
   int64_t last_frame_seen = -1, track_ref_frame = -1;
 
   double FoundRatio() const { return static_cast<double>(found) / visible; }
-  int PredictLevel(double dist, const FrontCamera& cam) const;
+  int PredictLevel(double dist, const ScalePyramid& pyr) const;
 };
 
 struct KeyFrame {
@@ -120,7 +130,8 @@ class Map {
   // ones when it starts a frame. Returns the number of entries freed.
   size_t PurgeCulled();
 
-  KeyFrame* AddKeyFrame(std::unique_ptr<KeyFrame> kf);
+  // A keyframe of the frame's features at pose T_cw, observing no point yet.
+  KeyFrame* NewKeyFrame(Timestamp t, int64_t frame_id, std::shared_ptr<const Features> f, const Se3& T_cw);
   Landmark* NewPoint(const Eigen::Vector3d& pos, KeyFrame* ref);
   int64_t NextKeyFrameId() const { return next_kf_id_; }
   int NumGoodKeyFrames() const;
@@ -131,12 +142,12 @@ class Map {
   static void SetBad(KeyFrame* kf);
   // Replace p by q in every keyframe that observes p.
   static void Replace(Landmark* p, Landmark* q);
-  static void UpdateNormalAndDepth(Landmark* p, const FrontCamera& cam);
+  static void UpdateNormalAndDepth(Landmark* p, const ScalePyramid& pyr);
   static void ComputeDescriptor(Landmark* p);
   static void UpdateConnections(KeyFrame* kf);
 
-  // Export (caller holds the mutex).
-  Submap Export(int64_t submap_id, const CameraIntrinsics& cam) const;
+  // Export (caller holds the mutex); the submap's camera is cam's pinhole K.
+  Submap Export(int64_t submap_id, const PinholeCamera& cam) const;
 
  private:
   int64_t next_kf_id_ = 0, next_point_id_ = 0;

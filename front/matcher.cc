@@ -54,7 +54,7 @@ int TrackFrame::NumMatches() const {
   return n;
 }
 
-int SearchByProjection(TrackFrame* cur, const TrackFrame& last, const FrontCamera& cam,
+int SearchByProjection(TrackFrame* cur, const TrackFrame& last, const PinholeCamera& cam, const ScalePyramid& pyr,
                        double radius, bool check_rotation) {
   const Features& f = *cur->f;
   RotationHistogram hist;
@@ -64,10 +64,10 @@ int SearchByProjection(TrackFrame* cur, const TrackFrame& last, const FrontCamer
     if (!p || p->bad || last.outlier[i]) continue;
     const Eigen::Vector3d pc = cur->T_cw * p->pos;
     if (pc.z() <= 0) continue;
-    const Eigen::Vector2d u = cam.Project(pc);
+    const Eigen::Vector2d u = ProjectUndistorted(cam, pc);
     if (!f.InImage(u.x(), u.y())) continue;
     const int level = last.f->keypoints[i].octave;
-    const double r = radius * cam.scales[level];
+    const double r = radius * pyr.scales[level];
     const auto cand = f.InArea(u.x(), u.y(), r, std::max(0, level - 1), level + 1);
     int best = 256, best_idx = -1;
     const uint8_t* pd = p->descriptor.ptr<uint8_t>();
@@ -88,7 +88,7 @@ int SearchByProjection(TrackFrame* cur, const TrackFrame& last, const FrontCamer
   return n;
 }
 
-int SearchLocalPoints(TrackFrame* cur, const std::vector<Landmark*>& points, const FrontCamera& cam,
+int SearchLocalPoints(TrackFrame* cur, const std::vector<Landmark*>& points, const PinholeCamera& cam, const ScalePyramid& pyr,
                       double radius) {
   const Features& f = *cur->f;
   const Eigen::Matrix3d R = cur->T_cw.R();
@@ -99,7 +99,7 @@ int SearchLocalPoints(TrackFrame* cur, const std::vector<Landmark*>& points, con
     if (p->bad || p->last_frame_seen == cur->id) continue;
     const Eigen::Vector3d pc = R * p->pos + t;
     if (pc.z() <= 0) continue;
-    const Eigen::Vector2d u = cam.Project(pc);
+    const Eigen::Vector2d u = ProjectUndistorted(cam, pc);
     if (!f.InImage(u.x(), u.y())) continue;
     const Eigen::Vector3d po = p->pos - Ow;
     const double dist = po.norm();
@@ -107,8 +107,8 @@ int SearchLocalPoints(TrackFrame* cur, const std::vector<Landmark*>& points, con
     const double view_cos = po.dot(p->normal) / dist;
     if (view_cos < 0.5) continue;
     p->visible++;
-    const int level = p->PredictLevel(dist, cam);
-    const double r = radius * (view_cos > 0.998 ? 2.5 : 4.0) * cam.scales[level];
+    const int level = p->PredictLevel(dist, pyr);
+    const double r = radius * (view_cos > 0.998 ? 2.5 : 4.0) * pyr.scales[level];
     const auto cand = f.InArea(u.x(), u.y(), r, level - 1, level);
     int best = 256, second = 256, best_level = -1, second_level = -1, best_idx = -1;
     const uint8_t* pd = p->descriptor.ptr<uint8_t>();
@@ -131,7 +131,7 @@ int SearchLocalPoints(TrackFrame* cur, const std::vector<Landmark*>& points, con
   return n;
 }
 
-int SearchKeyFramePoints(TrackFrame* cur, const KeyFrame& kf, const FrontCamera& cam, double radius,
+int SearchKeyFramePoints(TrackFrame* cur, const KeyFrame& kf, const PinholeCamera& cam, const ScalePyramid& pyr, double radius,
                          int max_desc, double ratio) {
   const Features& f = *cur->f;
   RotationHistogram hist;
@@ -142,10 +142,10 @@ int SearchKeyFramePoints(TrackFrame* cur, const KeyFrame& kf, const FrontCamera&
     if (std::find(cur->points.begin(), cur->points.end(), p) != cur->points.end()) continue;
     const Eigen::Vector3d pc = cur->T_cw * p->pos;
     if (pc.z() <= 0) continue;
-    const Eigen::Vector2d u = cam.Project(pc);
+    const Eigen::Vector2d u = ProjectUndistorted(cam, pc);
     if (!f.InImage(u.x(), u.y())) continue;
     const int level = kf.f->keypoints[i].octave;
-    const auto cand = f.InArea(u.x(), u.y(), radius * cam.scales[level], level - 2, level + 2);
+    const auto cand = f.InArea(u.x(), u.y(), radius * pyr.scales[level], level - 2, level + 2);
     int best = 256, second = 256, best_idx = -1;
     const uint8_t* pd = p->descriptor.ptr<uint8_t>();
     for (int j : cand) {
@@ -200,7 +200,7 @@ int SearchForInitialization(const Features& f1, const Features& f2,
 }
 
 std::vector<std::pair<int, int>> SearchForTriangulation(const KeyFrame& k1, const KeyFrame& k2,
-                                                        const FrontCamera& cam) {
+                                                        const PinholeCamera& cam, const ScalePyramid& pyr) {
   std::vector<std::pair<int, int>> out;
   const Features& f1 = *k1.f;
   const Features& f2 = *k2.f;
@@ -210,12 +210,12 @@ std::vector<std::pair<int, int>> SearchForTriangulation(const KeyFrame& k1, cons
   const Eigen::Vector3d t21 = T21.translation();
   Eigen::Matrix3d tx;
   tx << 0, -t21.z(), t21.y(), t21.z(), 0, -t21.x(), -t21.y(), t21.x(), 0;
-  const Eigen::Matrix3d Kinv = cam.K().inverse();
+  const Eigen::Matrix3d Kinv = PinholeMatrix(cam).inverse();
   const Eigen::Matrix3d F21 = Kinv.transpose() * tx * R21 * Kinv;
   // Epipole in image 2 (centre of camera 1).
   const Eigen::Vector3d c1in2 = t21;
   const bool epipole_ok = c1in2.z() > 1e-9;
-  const Eigen::Vector2d ep = epipole_ok ? cam.Project(c1in2) : Eigen::Vector2d(-1e9, -1e9);
+  const Eigen::Vector2d ep = epipole_ok ? ProjectUndistorted(cam, c1in2) : Eigen::Vector2d(-1e9, -1e9);
   const double median = k1.MedianDepth();
   const double dmin = 0.2 * median, dmax = 50.0 * median;
   std::vector<char> used2(f2.size(), 0);
@@ -226,7 +226,7 @@ std::vector<std::pair<int, int>> SearchForTriangulation(const KeyFrame& k1, cons
   RotationHistogram hist;
   for (size_t i = 0; i < f1.size(); ++i) {
     if (k1.points[i]) continue;
-    const Eigen::Vector3d x1 = cam.Ray(f1.un[i]);
+    const Eigen::Vector3d x1 = UndistortedRay(cam, f1.un[i]);
     const Eigen::Vector3d l2 = F21 * Eigen::Vector3d(f1.un[i].x(), f1.un[i].y(), 1.0);
     const double ln = std::hypot(l2.x(), l2.y());
     if (ln < 1e-12) continue;
@@ -240,7 +240,7 @@ std::vector<std::pair<int, int>> SearchForTriangulation(const KeyFrame& k1, cons
       if (!(d0 < dmax)) continue;
       pa = R21 * (x1 * d0) + t21;
     }
-    Eigen::Vector2d a = cam.Project(pa), b = cam.Project(pb);
+    Eigen::Vector2d a = ProjectUndistorted(cam, pa), b = ProjectUndistorted(cam, pb);
     // Clip to the image (Liang-Barsky).
     double t0 = 0, t1 = 1;
     const Eigen::Vector2d dvec = b - a;
@@ -276,8 +276,8 @@ std::vector<std::pair<int, int>> SearchForTriangulation(const KeyFrame& k1, cons
             if (used2[j]) continue;
             const int lvl2 = f2.keypoints[j].octave;
             const double e = l2.dot(Eigen::Vector3d(f2.un[j].x(), f2.un[j].y(), 1.0)) / ln;
-            if (e * e > 3.84 * cam.sigma2[lvl2]) continue;
-            if ((f2.un[j] - ep).squaredNorm() < 1e4 * cam.sigma2[lvl2]) continue;
+            if (e * e > 3.84 * pyr.sigma2[lvl2]) continue;
+            if ((f2.un[j] - ep).squaredNorm() < 1e4 * pyr.sigma2[lvl2]) continue;
             const int d = DescriptorDistance(d1, f2.descriptors.ptr<uint8_t>(j));
             if (d < best) { best = d; best_j = j; }
           }
@@ -299,7 +299,7 @@ std::vector<std::pair<int, int>> SearchForTriangulation(const KeyFrame& k1, cons
   return out;
 }
 
-int Fuse(KeyFrame* kf, const std::vector<Landmark*>& points, const FrontCamera& cam, double radius) {
+int Fuse(KeyFrame* kf, const std::vector<Landmark*>& points, const PinholeCamera& cam, const ScalePyramid& pyr, double radius) {
   const Features& f = *kf->f;
   const Eigen::Matrix3d R = kf->T_cw.R();
   const Eigen::Vector3d t = kf->T_cw.translation();
@@ -309,21 +309,21 @@ int Fuse(KeyFrame* kf, const std::vector<Landmark*>& points, const FrontCamera& 
     if (!p || p->bad || p->obs.count(kf)) continue;
     const Eigen::Vector3d pc = R * p->pos + t;
     if (pc.z() <= 0) continue;
-    const Eigen::Vector2d u = cam.Project(pc);
+    const Eigen::Vector2d u = ProjectUndistorted(cam, pc);
     if (!f.InImage(u.x(), u.y())) continue;
     const Eigen::Vector3d po = p->pos - Ow;
     const double dist = po.norm();
     if (dist < 0.8 * p->min_dist || dist > 1.2 * p->max_dist) continue;
     if (po.dot(p->normal) < 0.5 * dist) continue;
-    const int level = p->PredictLevel(dist, cam);
-    const auto cand = f.InArea(u.x(), u.y(), radius * cam.scales[level]);
+    const int level = p->PredictLevel(dist, pyr);
+    const auto cand = f.InArea(u.x(), u.y(), radius * pyr.scales[level]);
     int best = 256, best_j = -1;
     const uint8_t* pd = p->descriptor.ptr<uint8_t>();
     for (int j : cand) {
       const int kl = f.keypoints[j].octave;
       if (kl < level - 1 || kl > level) continue;
       const double e2 = (f.un[j] - u).squaredNorm();
-      if (e2 * cam.inv_sigma2[kl] > 5.99) continue;
+      if (e2 * pyr.inv_sigma2[kl] > 5.99) continue;
       const int d = DescriptorDistance(pd, f.descriptors.ptr<uint8_t>(j));
       if (d < best) { best = d; best_j = j; }
     }

@@ -14,17 +14,17 @@ constexpr int kDescLow = 50;    // strict threshold (initialisation, new points)
 
 // Projects the last frame's tracked points into cur (pose cur.T_cw) and
 // matches within radius * scale(level). Returns the number of new matches.
-int SearchByProjection(TrackFrame* cur, const TrackFrame& last, const FrontCamera& cam,
+int SearchByProjection(TrackFrame* cur, const TrackFrame& last, const PinholeCamera& cam, const ScalePyramid& pyr,
                        double radius, bool check_rotation);
 
 // Projects candidate points (frustum, scale and viewing-angle checks) and
 // matches them with a ratio test. Counts visibility for culling statistics.
 int SearchLocalPoints(TrackFrame* cur, const std::vector<Landmark*>& points,
-                      const FrontCamera& cam, double radius);
+                      const PinholeCamera& cam, const ScalePyramid& pyr, double radius);
 
 // Projects keyframe points with a descriptor ratio test (relocalisation /
 // reference fallback); skips points already matched.
-int SearchKeyFramePoints(TrackFrame* cur, const KeyFrame& kf, const FrontCamera& cam,
+int SearchKeyFramePoints(TrackFrame* cur, const KeyFrame& kf, const PinholeCamera& cam, const ScalePyramid& pyr,
                          double radius, int max_desc, double ratio);
 
 // Two-view initialisation matching: f1's features searched around
@@ -35,11 +35,11 @@ int SearchForInitialization(const Features& f1, const Features& f2,
 
 // Matches unmapped features of two keyframes along epipolar segments.
 std::vector<std::pair<int, int>> SearchForTriangulation(const KeyFrame& k1, const KeyFrame& k2,
-                                                        const FrontCamera& cam);
+                                                        const PinholeCamera& cam, const ScalePyramid& pyr);
 
 // Projects points into kf and merges duplicates / adds observations.
 // Returns the number of fused points.
-int Fuse(KeyFrame* kf, const std::vector<Landmark*>& points, const FrontCamera& cam, double radius);
+int Fuse(KeyFrame* kf, const std::vector<Landmark*>& points, const PinholeCamera& cam, const ScalePyramid& pyr, double radius);
 
 // Brute-force matches (mutual best + ratio) between two descriptor sets.
 std::vector<std::pair<int, int>> MatchBruteForce(const cv::Mat& d1, const cv::Mat& d2, int max_dist,

@@ -8,14 +8,14 @@
 
 namespace rumi {
 
-int OptimizePose(TrackFrame* f, const FrontCamera& cam) {
+int OptimizePose(TrackFrame* f, const PinholeCamera& cam, const ScalePyramid& pyr) {
   struct Ob { int idx; Eigen::Vector3d X; Eigen::Vector2d uv; double w; };
   std::vector<Ob> obs;
   for (size_t i = 0; i < f->points.size(); ++i) {
     Landmark* p = f->points[i];
     if (!p || p->bad) continue;
     f->outlier[i] = false;
-    obs.push_back({static_cast<int>(i), p->pos, f->f->un[i], cam.inv_sigma2[f->f->keypoints[i].octave]});
+    obs.push_back({static_cast<int>(i), p->pos, f->f->un[i], pyr.inv_sigma2[f->f->keypoints[i].octave]});
   }
   if (obs.size() < 3) return 0;
   const double chi2_th = 5.991, huber = std::sqrt(5.991);
@@ -34,11 +34,11 @@ int OptimizePose(TrackFrame* f, const FrontCamera& cam) {
         const Eigen::Vector3d pc = R * obs[k].X + t;
         if (pc.z() <= 1e-6) continue;
         const double iz = 1.0 / pc.z();
-        const Eigen::Vector2d e(cam.fx * pc.x() * iz + cam.cx - obs[k].uv.x(),
-                                cam.fy * pc.y() * iz + cam.cy - obs[k].uv.y());
+        const Eigen::Vector2d e(cam.fx() * pc.x() * iz + cam.cx() - obs[k].uv.x(),
+                                cam.fy() * pc.y() * iz + cam.cy() - obs[k].uv.y());
         // d(proj)/d(pc), and d(pc)/d(xi) = [I, -[pc]x] (left perturbation).
         Eigen::Matrix<double, 2, 3> Jp;
-        Jp << cam.fx * iz, 0, -cam.fx * pc.x() * iz * iz, 0, cam.fy * iz, -cam.fy * pc.y() * iz * iz;
+        Jp << cam.fx() * iz, 0, -cam.fx() * pc.x() * iz * iz, 0, cam.fy() * iz, -cam.fy() * pc.y() * iz * iz;
         Eigen::Matrix<double, 3, 6> Jx;
         Jx.leftCols<3>().setIdentity();
         Jx.rightCols<3>() << 0, pc.z(), -pc.y(), -pc.z(), 0, pc.x(), pc.y(), -pc.x(), 0;
@@ -63,7 +63,7 @@ int OptimizePose(TrackFrame* f, const FrontCamera& cam) {
     for (size_t k = 0; k < obs.size(); ++k) {
       const Eigen::Vector3d pc = R * obs[k].X + t;
       if (pc.z() <= 1e-6) { out[k] = 1; continue; }
-      const Eigen::Vector2d e = cam.Project(pc) - obs[k].uv;
+      const Eigen::Vector2d e = ProjectUndistorted(cam, pc) - obs[k].uv;
       out[k] = e.squaredNorm() * obs[k].w > chi2_th;
     }
   }
@@ -79,8 +79,8 @@ int OptimizePose(TrackFrame* f, const FrontCamera& cam) {
 namespace {
 
 struct ReprojCost {
-  ReprojCost(const Eigen::Vector2d& uv, double w, const FrontCamera& c)
-      : u(uv.x()), v(uv.y()), w(w), fx(c.fx), fy(c.fy), cx(c.cx), cy(c.cy) {}
+  ReprojCost(const Eigen::Vector2d& uv, double w, const PinholeCamera& c)
+      : u(uv.x()), v(uv.y()), w(w), fx(c.fx()), fy(c.fy()), cx(c.cx()), cy(c.cy()) {}
   template <typename T>
   bool operator()(const T* q, const T* t, const T* X, T* r) const {
     // q: Eigen order x y z w; ceres wants w x y z.
@@ -162,7 +162,7 @@ void CollectLocalBa(KeyFrame* kf, int max_local, int max_fixed, LocalBaProblem* 
   }
 }
 
-bool SolveLocalBa(LocalBaProblem* pb, const FrontCamera& cam, int iterations, double max_time_s,
+bool SolveLocalBa(LocalBaProblem* pb, const PinholeCamera& cam, const ScalePyramid& pyr, int iterations, double max_time_s,
                   const std::atomic<bool>* abort) {
   if (pb->obs.empty()) return false;
   ceres::Problem::Options po;
@@ -174,7 +174,7 @@ bool SolveLocalBa(LocalBaProblem* pb, const FrontCamera& cam, int iterations, do
   for (const auto& o : pb->obs) {
     // Residuals weighted by the inverse sigma of the keypoint's level.
     auto* cost = new ceres::AutoDiffCostFunction<ReprojCost, 2, 4, 3, 3>(
-        new ReprojCost(o.uv, 1.0 / cam.scales[o.level], cam));
+        new ReprojCost(o.uv, 1.0 / pyr.scales[o.level], cam));
     problem.AddResidualBlock(cost, &huber, pb->q[o.kf].data(), pb->t[o.kf].data(), pb->x[o.pt].data());
   }
   const int nl = static_cast<int>(pb->local.size());
@@ -203,7 +203,7 @@ bool SolveLocalBa(LocalBaProblem* pb, const FrontCamera& cam, int iterations, do
          summary.final_cost <= summary.initial_cost;
 }
 
-void ApplyLocalBa(const LocalBaProblem& pb, const FrontCamera& cam) {
+void ApplyLocalBa(const LocalBaProblem& pb, const PinholeCamera& cam, const ScalePyramid& pyr) {
   for (size_t i = 0; i < pb.local.size(); ++i) {
     KeyFrame* k = pb.local[i];
     if (k->bad || k->fixed) continue;
@@ -217,14 +217,14 @@ void ApplyLocalBa(const LocalBaProblem& pb, const FrontCamera& cam) {
     if (p->bad || o.k->bad) continue;
     const Eigen::Vector3d pc = o.k->T_cw * p->pos;
     const int lvl = o.k->f->keypoints[o.idx].octave;
-    if (pc.z() <= 0 || (cam.Project(pc) - o.uv).squaredNorm() * cam.inv_sigma2[lvl] > 5.991)
+    if (pc.z() <= 0 || (ProjectUndistorted(cam, pc) - o.uv).squaredNorm() * pyr.inv_sigma2[lvl] > 5.991)
       Map::EraseObservation(p, o.k);
   }
   for (Landmark* p : pb.points)
-    if (!p->bad) Map::UpdateNormalAndDepth(p, cam);
+    if (!p->bad) Map::UpdateNormalAndDepth(p, pyr);
 }
 
-void GlobalBa(Map* map, const FrontCamera& cam, int iterations) {
+void GlobalBa(Map* map, const PinholeCamera& cam, const ScalePyramid& pyr, int iterations) {
   LocalBaProblem pb;
   KeyFrame* first = nullptr;
   for (auto& [id, k] : map->keyframes) {
@@ -252,7 +252,7 @@ void GlobalBa(Map* map, const FrontCamera& cam, int iterations) {
         if (kidx.count(k)) pb.obs.push_back({kidx[k], pi, k->f->un[idx], k->f->keypoints[idx].octave, k, idx});
     }
   }
-  if (SolveLocalBa(&pb, cam, iterations, 1.0, nullptr)) ApplyLocalBa(pb, cam);
+  if (SolveLocalBa(&pb, cam, pyr, iterations, 1.0, nullptr)) ApplyLocalBa(pb, cam, pyr);
 }
 
 }  // namespace rumi

@@ -11,7 +11,7 @@ namespace rumi {
 
 // Refines f->T_cw from its point matches; marks outliers (chi2 > 5.991 on the
 // final round). Returns the number of inliers.
-int OptimizePose(TrackFrame* f, const FrontCamera& cam);
+int OptimizePose(TrackFrame* f, const PinholeCamera& cam, const ScalePyramid& pyr);
 
 struct LocalBaProblem {
   // Filled by Collect (map locked), solved unlocked, written back locked.
@@ -29,12 +29,12 @@ struct LocalBaProblem {
 void CollectLocalBa(KeyFrame* kf, int max_local, int max_fixed, LocalBaProblem* pb);
 // Solves in place; stops early when *abort becomes true. Returns whether the
 // result should be applied (usable, cost not increased).
-bool SolveLocalBa(LocalBaProblem* pb, const FrontCamera& cam, int iterations, double max_time_s,
+bool SolveLocalBa(LocalBaProblem* pb, const PinholeCamera& cam, const ScalePyramid& pyr, int iterations, double max_time_s,
                   const std::atomic<bool>* abort);
 // Writes poses/points back and drops observations with large errors.
-void ApplyLocalBa(const LocalBaProblem& pb, const FrontCamera& cam);
+void ApplyLocalBa(const LocalBaProblem& pb, const PinholeCamera& cam, const ScalePyramid& pyr);
 
 // Full BA over all keyframes (used after initialisation); first keyframe fixed.
-void GlobalBa(Map* map, const FrontCamera& cam, int iterations);
+void GlobalBa(Map* map, const PinholeCamera& cam, const ScalePyramid& pyr, int iterations);
 
 }  // namespace rumi

@@ -7,27 +7,16 @@
 
 namespace rumi {
 
-ImuSynth::ImuSynth(std::vector<std::pair<Timestamp, Se3>> poses, const ImuSynthOptions& o)
-    : poses_(std::move(poses)), o_(o), rng_(o.seed) {
+ImuSynth::ImuSynth(std::vector<std::pair<Timestamp, Se3>> poses, const ImuSynthOptions& o) : o_(o), rng_(o.seed) {
+  for (const auto& [t, T] : poses) poses_.Add(t, T);
   if (poses_.size() < 2) throw std::runtime_error("imu synthesis needs at least 2 ground-truth poses");
   bg_ = Eigen::Vector3d::Constant(o_.gyro_bias);
   ba_ = Eigen::Vector3d::Constant(o_.accel_bias);
 }
 
-bool ImuSynth::covers(Timestamp t) const { return t >= poses_.front().first && t <= poses_.back().first; }
+bool ImuSynth::covers(Timestamp t) const { return t >= poses_.first_time() && t <= poses_.last_time(); }
 
-Se3 ImuSynth::PoseAt(Timestamp t) const {
-  t = std::clamp(t, poses_.front().first, poses_.back().first);
-  auto it = std::lower_bound(poses_.begin(), poses_.end(), t,
-                             [](const std::pair<Timestamp, Se3>& p, Timestamp x) { return p.first < x; });
-  if (it == poses_.begin()) return it->second;
-  if (it == poses_.end()) return poses_.back().second;
-  const auto& b = *it;
-  const auto& a = *(it - 1);
-  const double s = b.first > a.first ? static_cast<double>(t - a.first) / static_cast<double>(b.first - a.first) : 0;
-  const Eigen::Quaterniond q = a.second.rotation().slerp(s, b.second.rotation());
-  return Se3(q, (1 - s) * a.second.translation() + s * b.second.translation());
-}
+Se3 ImuSynth::PoseAt(Timestamp t) const { return *poses_.At(std::clamp(t, poses_.first_time(), poses_.last_time())); }
 
 void ImuSynth::Sample(Timestamp t, float accel[3], float gyro[3]) {
   const Timestamp h = 10'000'000;  // 10 ms differences: smoother than 30 Hz poses need

@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include "common/geometry.h"
+#include "common/pose_buffer.h"
 #include "common/timestamp.h"
 
 namespace rumi {
@@ -34,9 +35,9 @@ class ImuSynth {
   void Sample(Timestamp t, float accel[3], float gyro[3]);
 
  private:
-  Se3 PoseAt(Timestamp t) const;  // linear position, slerped rotation
+  Se3 PoseAt(Timestamp t) const;  // clamped to the trajectory's span
 
-  std::vector<std::pair<Timestamp, Se3>> poses_;
+  PoseBuffer poses_;
   ImuSynthOptions o_;
   std::mt19937_64 rng_;
   Eigen::Vector3d bg_, ba_;
