@@ -40,7 +40,7 @@ bool MapInitializer::Match(const TrackFrame& cur, bool reinit, const PinholeCame
   tvo.min_triangulated = MinPoints(reinit);
   tvo.min_parallax_deg = reinit ? o_.reinit_min_parallax_deg : o_.init_min_parallax_deg;
   // The pinhole K: keypoints are undistorted already.
-  two_view_ = TwoViewResult();  // ReconstructTwoView appends to its result
+  two_view_ = TwoViewResult();  // nothing of an earlier attempt survives
   return ReconstructTwoView(p1, p2, PinholeMatrix(cam), tvo, &two_view_);
 }
 
