@@ -1,5 +1,7 @@
 #include "front/feature_extractor.h"
 
+#include "front/front_test_util.h"
+
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
@@ -15,20 +17,9 @@ cv::Mat Texture(int w, int h) {
   return img;
 }
 
-PinholeCameraOptions Qvga(double k1) {
-  PinholeCameraOptions o;
-  o.width = 320;
-  o.height = 240;
-  o.fx = o.fy = 245;
-  o.cx = 159.5;
-  o.cy = 119.5;
-  o.k1 = k1;
-  o.k2 = 0.05 * (k1 != 0);
-  return o;
-}
 
 TEST(FeatureExtractor, UndistortsKeypointsWithTheCameraModel) {
-  const PinholeCamera cam(Qvga(-0.2));
+  const PinholeCamera cam(QvgaCamera(-0.2));
   OrbExtractorOptions orb;
   orb.num_features = 500;
   FeatureExtractor ex(orb, cam);
@@ -58,7 +49,7 @@ TEST(FeatureExtractor, UndistortsKeypointsWithTheCameraModel) {
 }
 
 TEST(FeatureExtractor, WithoutDistortionKeepsPixelsAndReadsColourAsGrey) {
-  const PinholeCamera cam(Qvga(0));
+  const PinholeCamera cam(QvgaCamera());
   OrbExtractorOptions orb;
   orb.num_features = 500;
   FeatureExtractor ex(orb, cam);

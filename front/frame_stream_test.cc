@@ -1,4 +1,5 @@
 #include "front/frame_stream.h"
+#include "front/front_test_util.h"
 
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
@@ -36,15 +37,6 @@ cv::Mat Pattern(int k, int w = 320, int h = 240) {
   return img;
 }
 
-PinholeCameraOptions Qvga() {
-  PinholeCameraOptions c;
-  c.width = 320;
-  c.height = 240;
-  c.fx = c.fy = 245;
-  c.cx = 159.5;
-  c.cy = 119.5;
-  return c;
-}
 
 // The ESP32-CAM web server's /stream, on loopback: multipart JPEG frames.
 // Each connection gets `per_connection` frames, then the server hangs up (a
@@ -153,7 +145,7 @@ TEST(FrameStream, VideoFilePlaysAtItsRateWithGroundStationTimestamps) {
     ASSERT_TRUE(w.isOpened());
     for (int k = 0; k < 20; ++k) w.write(Pattern(k));
   }
-  const PinholeCameraOptions cam = Qvga();
+  const PinholeCameraOptions cam = QvgaCamera();
   StreamOpenOptions o;
   o.source = Capture(file);
   o.camera = &cam;
@@ -189,7 +181,7 @@ TEST(FrameStream, WrongFrameSizeIsRefusedNamingBothSizes) {
     cv::VideoWriter w(file, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 20.0, cv::Size(640, 480));
     for (int k = 0; k < 3; ++k) w.write(Pattern(k, 640, 480));
   }
-  const PinholeCameraOptions cam = Qvga();
+  const PinholeCameraOptions cam = QvgaCamera();
   StreamOpenOptions o;
   o.source = Capture(file);
   o.camera = &cam;
@@ -213,7 +205,7 @@ TEST(FrameStream, WrongFrameSizeIsRefusedNamingBothSizes) {
 // stream is reopened and the frames go on, timestamps increasing.
 TEST(FrameStream, HttpMjpegStreamReconnectsAfterADrop) {
   MjpegServer server(/*per_connection=*/8, /*connections=*/2, /*fps=*/25);
-  const PinholeCameraOptions cam = Qvga();
+  const PinholeCameraOptions cam = QvgaCamera();
   StreamOpenOptions o;
   o.source = Capture(server.url());
   o.camera = &cam;
@@ -238,7 +230,7 @@ TEST(FrameStream, HttpMjpegStreamReconnectsAfterADrop) {
 TEST(FrameStream, AStalledStreamIsReopened) {
   // Clients that gave up while the stall lasts are accepted (and dropped) too.
   MjpegServer server(/*per_connection=*/5, /*connections=*/20, /*fps=*/25, 320, /*hold_s=*/2.5);
-  const PinholeCameraOptions cam = Qvga();
+  const PinholeCameraOptions cam = QvgaCamera();
   StreamOpenOptions o;
   o.source = Capture(server.url());
   o.camera = &cam;
@@ -257,7 +249,7 @@ TEST(FrameStream, AStalledStreamIsReopened) {
 }
 
 TEST(FrameStream, AStreamThatIsNotThereYetIsRetriedUntilStopped) {
-  const PinholeCameraOptions cam = Qvga();
+  const PinholeCameraOptions cam = QvgaCamera();
   StreamOpenOptions o;
   int port = 0;
   {  // a port nobody listens on: bound, then let go

@@ -1,5 +1,5 @@
 #pragma once
-// Test helpers: the first frames of the real KITTI 03 excerpt, ATE (Sim3)
+// Test helpers: a QVGA camera, the first frames of the real KITTI 03 excerpt, ATE (Sim3)
 // of tracked records against the frames' ground truth.
 #include <opencv2/core.hpp>
 
@@ -13,6 +13,19 @@
 #include "common/submap.h"
 
 namespace rumi {
+
+// The rat robot's ESP32-CAM at 320x240 (configs/rat_robot.yaml's guess),
+// with radial distortion k1 (0: none).
+inline PinholeCameraOptions QvgaCamera(double k1 = 0) {
+  PinholeCameraOptions c;
+  c.width = 320;
+  c.height = 240;
+  c.fx = c.fy = 245;
+  c.cx = 159.5;
+  c.cy = 119.5;
+  c.k1 = k1;
+  return c;
+}
 
 struct TestSequence {
   PinholeCamera camera;
