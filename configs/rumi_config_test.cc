@@ -46,6 +46,7 @@ TEST(RumiConfig, ATypoInAnySectionIsAnError) {
   EXPECT_NE(ErrorOf("mangaer: {}\n").find("'mangaer'"), std::string::npos);
   EXPECT_NE(ErrorOf("log_level: loud\n").find("log_level"), std::string::npos);
   EXPECT_NE(ErrorOf("manager: {rebuild_max_duty: 2}\n").find("manager.rebuild_max_duty"), std::string::npos);
+  EXPECT_NE(ErrorOf("manager: {map_save_max_duty: 0}\n").find("manager.map_save_max_duty"), std::string::npos);
   EXPECT_NE(ErrorOf("publisher: {queue_capacity: 0}\n").find("publisher.queue_capacity"), std::string::npos);
   EXPECT_NE(ErrorOf("daemon: {child_output: syslog}\n").find("daemon.child_output"), std::string::npos);
   EXPECT_NE(ErrorOf("source: {kind: vhs}\n").find("source.kind"), std::string::npos);
@@ -55,7 +56,7 @@ TEST(RumiConfig, ATypoInAnySectionIsAnError) {
 TEST(RumiConfig, ProductionRuntimeOptionsAreInYaml) {
   const RumiConfig c = LoadRumiConfigString(
       "publisher: {queue_capacity: 8, resend_interval_s: 1.5}\n"
-      "manager: {rebuild_interval_s: 2, rebuild_max_duty: 0.25, search_n: 4}\n"
+      "manager: {rebuild_interval_s: 2, rebuild_max_duty: 0.25, search_n: 4, map_save_interval_s: 120}\n"
       "back: {wait_for_consumer_s: 5, max_queue_windows: 3}\n"
       "source: {kind: capture, path: 'http://10.0.0.2:81/stream', stall_timeout_s: 2}\n"
       "daemon: {stop_timeout_s: 5, child_output: files}\n");
@@ -63,6 +64,7 @@ TEST(RumiConfig, ProductionRuntimeOptionsAreInYaml) {
   EXPECT_EQ(c.publisher.resend_interval_s, 1.5);
   EXPECT_EQ(c.manager_loop.rebuild_interval_s, 2);
   EXPECT_EQ(c.manager_loop.rebuild_max_duty, 0.25);
+  EXPECT_EQ(c.manager_loop.map_save_interval_s, 120);
   EXPECT_EQ(c.manager.search_n, 4);
   EXPECT_EQ(c.back.wait_for_consumer_s, 5);
   EXPECT_EQ(c.source.path, "http://10.0.0.2:81/stream");

@@ -20,6 +20,7 @@
 #include <chrono>
 
 #include "common/process/exit_codes.h"
+#include "common/process/process_info.h"
 #include "common/recent_samples.h"
 #include "configs/process_setup.h"
 #include "common/dataset.h"
@@ -32,15 +33,6 @@
 
 namespace rumi {
 namespace {
-
-// Resident set size of this process (VmRSS), MiB; -1 when unknown.
-double ResidentMiB() {
-  std::ifstream f("/proc/self/status");
-  std::string line;
-  while (std::getline(f, line))
-    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;  // kB
-  return -1;
-}
 
 Trajectory TrackedPoses(const Submap& s) {
   Trajectory t;

@@ -131,7 +131,7 @@ int FullDiskScenario() {
   ipc.submap_slot_bytes = 4 << 20;
   const std::string log = (dir / "manager.log").string();
   const std::string cfg = (dir / "config.yaml").string();
-  std::ofstream(cfg) << "ipc: {submap_slot_bytes: " << ipc.submap_slot_bytes << "}\nmanager: {rebuild_interval_s: 0.2}\n";
+  std::ofstream(cfg) << "ipc: {submap_slot_bytes: " << ipc.submap_slot_bytes << "}\nmanager: {rebuild_interval_s: 0.2, map_save_interval_s: 0}\n";
   const pid_t pid = Spawn({"--instance", ipc.instance, "--out", state.string(), "--daemon", "--config", cfg}, log);
   const auto s = testing::MakeScenario();
   SubmapSender front(ipc, SubmapSource::kFront);
@@ -139,7 +139,8 @@ int FullDiskScenario() {
   if (!WaitAttached(&front, &back, pid, 20)) return 1;
   front.Send(s.front_a.submap);
   const fs::path map = state / "map.rumi";
-  if (!WaitUntil([&] { return fs::exists(map) && ReadAll(log).find("rebuild 1 in") != std::string::npos; }, 20))
+  // "phases" is logged once the rebuild's writes are done.
+  if (!WaitUntil([&] { return fs::exists(map) && ReadAll(log).find("rebuild 1 phases") != std::string::npos; }, 20))
     return 2;
   const std::string before = ReadAll(map.string());
   {  // fill the disk

@@ -31,6 +31,16 @@ struct ManagerLoopOptions {
   // this long; otherwise the received submaps are saved as they are and the
   // next start rebuilds (a stop stays within rumid's stop timeout).
   double stop_rebuild_max_s = 4.0;
+  // The map file and the raw submaps (map.rumi, map.rumi.raw) are rewritten
+  // whole, which grows with the session (15 s for both at 50 submaps,
+  // docs/results/2026-11-25-manager-session.md): a rebuild writes them only
+  // when this long has passed since the last time, and when that is at
+  // least the last write's duration times (1 / map_save_max_duty - 1). The
+  // trajectories, grid and stats are written after every rebuild, and the
+  // final save (exit, stop) is always whole. Nothing received is at risk in
+  // between: rumid's journal holds every submap from the moment it arrives.
+  double map_save_interval_s = 30.0;
+  double map_save_max_duty = 0.1;
   static const OptionSpec<ManagerLoopOptions>& Spec();
 };
 
@@ -51,6 +61,9 @@ struct ManagerRunOptions {
 // took `last_rebuild_s`: not before rebuild_interval_s, and not before
 // last_rebuild_s * (1 / rebuild_max_duty - 1).
 bool RebuildDue(const ManagerLoopOptions& loop, double since_last_s, double last_rebuild_s);
+// Whether a rebuild writes the map file and the raw submaps too, the last
+// write of them having ended `since_last_s` ago and taken `last_save_s`.
+bool MapSaveDue(const ManagerLoopOptions& loop, double since_last_s, double last_save_s);
 
 enum class ManagerExit { kProducersDone, kStopped, kNoProducer, kError };
 

@@ -36,6 +36,19 @@ TEST(ManagerRun, RebuildsTakeAtMostTheirDutyShare) {
   EXPECT_TRUE(RebuildDue(run, 1.0, 0.0));
 }
 
+TEST(ManagerRun, MapSaveDueHonoursIntervalAndDuty) {
+  ManagerLoopOptions run;
+  run.map_save_interval_s = 30;
+  run.map_save_max_duty = 0.1;
+  EXPECT_FALSE(MapSaveDue(run, 29.9, 0.5));
+  EXPECT_TRUE(MapSaveDue(run, 30.0, 0.5));
+  // 15 s to write a long session's files: 135 s before the next write.
+  EXPECT_FALSE(MapSaveDue(run, 134.0, 15.0));
+  EXPECT_TRUE(MapSaveDue(run, 135.0, 15.0));
+  run.map_save_interval_s = 0;  // every rebuild writes them (small maps)
+  EXPECT_TRUE(MapSaveDue(run, 0.0, 0.0));
+}
+
 TEST(ManagerRun, LoopEndsWhenNoProducerAppearsOrOnStop) {
   TempDir dir;
   std::string why;
@@ -59,6 +72,38 @@ TEST(ManagerRun, LoopEndsWhenNoProducerAppearsOrOnStop) {
   });
   EXPECT_EQ(RunManagerLoop(run, &svc, &stop), ManagerExit::kStopped);
   t.join();
+}
+
+TEST(ManagerRun, AStopUnderRumidLeavesSlowMapSavesToTheJournal) {
+  // The map file takes longer to write than a stop may (stop_rebuild_max_s
+  // 0 here): the stop writes the small outputs only, the journal keeps the
+  // submap that arrived since the last whole save, and a restart has it.
+  const auto s = testing::MakeScenario();
+  TempDir dir;
+  std::string why;
+  ManagerRunOptions run;
+  run.service.out_dir = dir.str();
+  run.service.journal = true;
+  run.ipc.instance = "mgrstop_" + std::to_string(::getpid());
+  run.loop.stop_rebuild_max_s = 0;
+  {
+    ManagerService svc(run.service);
+    ASSERT_TRUE(svc.Start(&why)) << why;
+    svc.AddSubmap(s.front_a.submap);
+    ASSERT_TRUE(svc.Rebuild(&why)) << why;  // a whole save
+    ASSERT_GT(svc.stats().last_map_save_seconds, 0);
+    svc.AddSubmap(s.back.submap);
+    std::atomic<bool> stop{true};
+    EXPECT_EQ(RunManagerLoop(run, &svc, &stop), ManagerExit::kStopped);
+    EXPECT_EQ(svc.stats().map_saves, 1);
+  }
+  EXPECT_TRUE(fs::exists(fs::path(run.service.JournalDir()) / "back_1.rsub"));
+  ManagerService again(run.service);
+  ASSERT_TRUE(again.Start(&why)) << why;
+  EXPECT_EQ(again.stats().journal_reloaded, 1);
+  EXPECT_TRUE(again.dirty());
+  ASSERT_TRUE(again.Rebuild(&why)) << why;
+  EXPECT_EQ(again.stats().merges, 1);
 }
 
 TEST(ManagerRun, UnderRumidTheSourceEndedAndNoChannelLeftEndsTheLoop) {

@@ -9,6 +9,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <thread>
@@ -288,8 +289,15 @@ void ManagerService::StampJoinedBackSubmaps() {
 }
 
 bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel,
-                             const std::function<void()>& on_rebuilt) {
+                             const std::function<void()>& on_rebuilt, bool map_files) {
   const auto t0 = std::chrono::steady_clock::now();
+  ManagerStats::Phases phases;
+  auto lap = t0;
+  const auto time = [&lap](double* phase) {
+    const auto now = std::chrono::steady_clock::now();
+    *phase = std::chrono::duration<double>(now - lap).count();
+    lap = now;
+  };
   std::vector<SubmapKey> replaced;
   for (const auto& kv : received_) replaced.push_back(kv.first);
   GlobalMap map = CopyWithout(base_, replaced);
@@ -308,15 +316,19 @@ bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel,
     if (why) *why = "rebuild abandoned: stop requested";
     return true;
   };
+  time(&phases.copy);
   std::vector<MergeReport> reports = MergeAll(&map, options_.manager, &merge_memo_, cancel);
   if (abandoned()) return false;
+  time(&phases.merge);
   for (MergeReport& r : PlaceMergeAll(&map, options_.manager, &place_memo_, &merge_memo_, cancel))
     reports.push_back(std::move(r));
   if (abandoned()) return false;
+  time(&phases.place);
   stats_.reports = std::move(reports);
   stats_.front_submap_upto = front_upto;
   stats_.front_submap_upto_end = front_upto_end;
   for (MergeReport& r : OdometryMergeAll(&map, options_.manager)) stats_.reports.push_back(std::move(r));
+  time(&phases.odometry);
   stats_.merges_replayed = merge_memo_.hits();
   stats_.merge_attempts = int(stats_.reports.size());
   for (const auto& r : stats_.reports) {
@@ -336,6 +348,9 @@ bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel,
   if (options_.post_culling) stats_.culling = CullRedundantKeyframes(&map, options_.manager);
   stats_.saved_frames_postculled = stats_.culling.keyframes_after;
   map_ = std::move(map);
+  map_dirty_ = true;
+  time(&phases.culling);
+  stats_.last_rebuild_phases = phases;
   dirty_ = false;
   ++stats_.rebuilds;
   UpdateCounts();
@@ -346,7 +361,12 @@ bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel,
                stats_.rebuilds, stats_.last_rebuild_seconds, map_.size(), stats_.components, stats_.merges,
                stats_.saved_frames, stats_.saved_frames_postculled, merge_memo_.hits(), merge_memo_.misses());
   if (on_rebuilt) on_rebuilt();
-  return WriteOutputs(why);
+  const bool saved = WriteOutputs(why, map_files);
+  const ManagerStats::Phases& p = stats_.last_rebuild_phases;
+  spdlog::info("manager: rebuild {} phases (s): copy {:.2f}, merge {:.2f}, place {:.2f}, odometry {:.2f}, culling {:.2f}, "
+               "save raw {:.2f}, save map {:.2f}, other outputs {:.2f}",
+               stats_.rebuilds, p.copy, p.merge, p.place, p.odometry, p.culling, p.save_raw, p.save_map, p.outputs);
+  return saved;
 }
 
 bool ManagerService::WriteTrajectories(std::string* why) {
@@ -397,6 +417,12 @@ bool ManagerService::WriteStats(std::string* why) const {
   j["merges_replayed"] = stats_.merges_replayed;
   j["base_submaps"] = stats_.base_submaps;
   j["last_rebuild_seconds"] = stats_.last_rebuild_seconds;
+  j["map_saves"] = stats_.map_saves;
+  j["last_map_save_seconds"] = stats_.last_map_save_seconds;
+  const ManagerStats::Phases& p = stats_.last_rebuild_phases;
+  j["last_rebuild_phases_s"] = {{"copy", p.copy},         {"merge", p.merge},       {"place", p.place},
+                                {"odometry", p.odometry}, {"culling", p.culling},   {"save_raw", p.save_raw},
+                                {"save_map", p.save_map}, {"outputs", p.outputs}};
   j["journal_reloaded"] = stats_.journal_reloaded;
   j["last_save"] = stats_.last_save;
   j["points_before_culling"] = stats_.culling.points_before;
@@ -440,10 +466,19 @@ bool ManagerService::WriteGrid(std::string* why) {
   return false;
 }
 
-bool ManagerService::WriteOutputs(std::string* why) {
+double ManagerService::SecondsSinceMapSave() const {
+  return stats_.map_saves == 0 ? std::numeric_limits<double>::infinity() : SecondsSince(map_saved_at_);
+}
+
+bool ManagerService::WriteOutputs(std::string* why, bool map_files) {
+  const bool failed_before = unsaved_;
   unsaved_ = true;  // until every file below is written
   std::string err;
-  if (raw_dirty_) {
+  ManagerStats::Phases& phases = stats_.last_rebuild_phases;
+  phases.save_raw = phases.save_map = phases.outputs = 0;
+  const auto start = std::chrono::steady_clock::now();
+  auto t0 = start;
+  if (map_files && raw_dirty_) {
     GlobalMap raw;
     for (const auto& kv : received_) raw.AddSubmap(kv.second);
     if (!SaveGlobalMap(raw, RawPath(), &err)) {
@@ -456,13 +491,28 @@ bool ManagerService::WriteOutputs(std::string* why) {
       for (const auto& kv : received_) fs::remove(JournalPath(options_.JournalDir(), kv.first), ec);
     }
   }
-  if (!SaveGlobalMap(map_, options_.MapPath(), &err)) {
-    if (why) *why = err;
-    return false;
+  phases.save_raw = SecondsSince(t0);
+  t0 = std::chrono::steady_clock::now();
+  if (map_files && (map_dirty_ || stats_.map_saves == 0)) {  // the first whole save writes it even empty
+    if (!SaveGlobalMap(map_, options_.MapPath(), &err)) {
+      if (why) *why = err;
+      return false;
+    }
+    map_dirty_ = false;
+    stats_.last_save = WallClockNow();
   }
-  stats_.last_save = WallClockNow();
-  if (!WriteTrajectories(why) || !WriteGrid(why) || !WriteStats(why)) return false;
+  phases.save_map = SecondsSince(t0);
+  if (map_files) {
+    stats_.last_map_save_seconds = SecondsSince(start);
+    ++stats_.map_saves;
+    map_saved_at_ = std::chrono::steady_clock::now();
+  }
+  t0 = std::chrono::steady_clock::now();
+  if (!WriteTrajectories(why) || !WriteGrid(why)) return false;
+  phases.outputs = SecondsSince(t0);  // the stats file below carries it
+  if (!WriteStats(why)) return false;
   unsaved_ = false;
+  if (failed_before) spdlog::info("manager: saved again after an earlier failure");
   return true;
 }
 

@@ -13,6 +13,7 @@
 // rebuild computes only those of new or grown submaps; rebuilds are still
 // rate-limited by the caller (RunManagerLoop, manager/manager_run.h).
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -65,6 +66,14 @@ struct ManagerStats {
   Timestamp front_submap_upto_end = 0;  // its last frame
   int trajectory_frames = 0;  // frames of merged.txt
   double last_rebuild_seconds = 0;
+  double last_map_save_seconds = 0;  // the last write of map.rumi + map.rumi.raw
+  int64_t map_saves = 0;
+  // Where the last rebuild's time went (seconds): the copy of the inputs,
+  // the merges (back, place, odometry), the culling, and the writes.
+  struct Phases {
+    double copy = 0, merge = 0, place = 0, odometry = 0, culling = 0;
+    double save_raw = 0, save_map = 0, outputs = 0;  // outputs: trajectories, grid, stats
+  } last_rebuild_phases;
   std::string grid;  // the last grid's summary, or why there is none
   std::vector<MergeReport> reports;  // of the last rebuild (rejections included)
   CullingReport culling;
@@ -97,6 +106,9 @@ class ManagerService {
   // The last WriteOutputs failed (a full disk): the files on disk are the
   // previous ones, intact; saving again is due.
   bool unsaved() const { return unsaved_; }
+  // The map file or the raw submaps are older than the map in memory (a
+  // rebuild left them for later).
+  bool map_files_pending() const { return map_dirty_ || raw_dirty_; }
 
   // Rebuilds the global map from the base and all received submaps, culls,
   // then writes the outputs. False (with why) when an output cannot be
@@ -105,11 +117,17 @@ class ManagerService {
   // on_rebuilt runs once the new map is in place, before the writes: what
   // waits on the map (a halted robot) need not wait on the disk, nor on a
   // save that fails.
+  // map_files false: the map file and the raw submaps are left for a later
+  // save (RunManagerLoop's MapSaveDue), the other outputs are written.
   bool Rebuild(std::string* why, const std::atomic<bool>* cancel = nullptr,
-               const std::function<void()>& on_rebuilt = {});
+               const std::function<void()>& on_rebuilt = {}, bool map_files = true);
   // Writes map file (atomic), merged.txt, merged_<k>.txt (one per component,
   // largest first, merged_0 == merged.txt), manager_stats.json (all atomic).
-  bool WriteOutputs(std::string* why);
+  // map_files false: all but the map file and the raw submaps.
+  bool WriteOutputs(std::string* why, bool map_files = true);
+  // Seconds since the map file and the raw submaps were last written by this
+  // service (infinite before its first write: the first rebuild writes them).
+  double SecondsSinceMapSave() const;
 
   const GlobalMap& map() const { return map_; }
   const ManagerStats& stats() const { return stats_; }
@@ -134,6 +152,8 @@ class ManagerService {
   GlobalMap map_;  // current product
   bool dirty_ = false;
   bool raw_dirty_ = false;  // received_ changed since the raw file was written
+  bool map_dirty_ = false;  // map_ changed since the map file was written
+  std::chrono::steady_clock::time_point map_saved_at_;  // valid once stats_.map_saves > 0
   bool unsaved_ = false;
   int written_components_ = 0;  // merged_<k>.txt files present
   MapGridResult grid_;

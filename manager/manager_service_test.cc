@@ -335,6 +335,49 @@ TEST(ManagerService, ReloadedMapTakesNewSubmapsAndResends) {
   EXPECT_EQ(svc.stats().trajectory_frames, 111);
 }
 
+// A rebuild may leave the map file and the raw submaps for later (the
+// loop's MapSaveDue): the trajectories are current, the big files catch up at
+// the next whole save, and a restart in between loses nothing of the journal.
+TEST(ManagerService, RebuildCanLeaveTheMapFilesForLater) {
+  const auto s = testing::MakeScenario();
+  TempDir dir;
+  std::string why;
+  ManagerServiceOptions o = Options(dir);
+  o.journal = true;
+  {
+    ManagerService svc(o);
+    ASSERT_TRUE(svc.Start(&why)) << why;
+    svc.AddSubmap(s.front_a.submap);
+    ASSERT_TRUE(svc.Rebuild(&why)) << why;  // whole
+    EXPECT_FALSE(svc.map_files_pending());
+    EXPECT_EQ(svc.stats().map_saves, 1);
+    const auto map_size = fs::file_size(dir / "map.rumi");
+    svc.AddSubmap(s.back.submap);
+    svc.AddSubmap(s.front_b.submap);
+    ASSERT_TRUE(svc.Rebuild(&why, nullptr, {}, /*map_files=*/false)) << why;
+    EXPECT_TRUE(svc.map_files_pending());
+    EXPECT_FALSE(svc.unsaved());
+    EXPECT_EQ(svc.stats().map_saves, 1);
+    EXPECT_EQ(fs::file_size(dir / "map.rumi"), map_size);  // untouched
+    EXPECT_EQ(ReadTum(dir / "merged.txt").size(), 111u);   // current
+    EXPECT_EQ(ReadJson(dir / "manager_stats.json")["merges"], 2);
+    // Killed here: the journal still holds the two submaps.
+  }
+  {
+    ManagerService svc(o);
+    ASSERT_TRUE(svc.Start(&why)) << why;
+    EXPECT_EQ(svc.stats().journal_reloaded, 2);
+    ASSERT_TRUE(svc.Rebuild(&why, nullptr, {}, /*map_files=*/false)) << why;
+    EXPECT_EQ(svc.stats().merges, 2);
+    ASSERT_TRUE(svc.WriteOutputs(&why)) << why;  // the whole save
+    EXPECT_FALSE(svc.map_files_pending());
+    EXPECT_TRUE(fs::is_empty(o.JournalDir()));
+  }
+  GlobalMap saved;
+  ASSERT_TRUE(LoadGlobalMap(dir / "map.rumi", &saved, &why)) << why;
+  EXPECT_EQ(saved.size(), 3u);
+}
+
 // rumid's manager keeps a journal: what arrived after the last save
 // survives a manager killed before the next one, and the restart merges it.
 TEST(ManagerService, JournalKeepsWhatArrivedBetweenSavesAcrossAKill) {

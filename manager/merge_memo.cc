@@ -80,6 +80,51 @@ uint64_t SubmapFingerprint(const Submap& s) {
   return h.value();
 }
 
+namespace {
+bool Same(const Se3& a, const Se3& b) {
+  return a.translation() == b.translation() && a.rotation().coeffs() == b.rotation().coeffs();
+}
+bool Same(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return a == b; }
+
+// Keeps the entries of `v` (index, value before) whose value in `after`
+// differs, with the value after. False when the counts differ.
+template <typename T, typename Get>
+bool KeepChanged(std::vector<std::pair<int32_t, T>>* v, size_t count, Get get) {
+  if (v->size() != count) return false;
+  size_t n = 0;
+  for (auto& [i, x] : *v) {
+    const T& now = get(size_t(i));
+    if (Same(x, now)) continue;
+    (*v)[n++] = {i, now};
+  }
+  v->resize(n);
+  v->shrink_to_fit();
+  return true;
+}
+}  // namespace
+
+void SubmapEdit::Begin(const Submap& s) {
+  keyframe_poses.clear();
+  point_positions.clear();
+  frame_poses.clear();
+  for (size_t i = 0; i < s.keyframes.size(); ++i) keyframe_poses.emplace_back(int32_t(i), s.keyframes[i].T_cw);
+  for (size_t i = 0; i < s.points.size(); ++i) point_positions.emplace_back(int32_t(i), s.points[i].position);
+  for (size_t i = 0; i < s.frames.size(); ++i) frame_poses.emplace_back(int32_t(i), s.frames[i].T_wc);
+}
+
+bool SubmapEdit::Finish(const Submap& s) {
+  return KeepChanged(&keyframe_poses, s.keyframes.size(), [&](size_t i) -> const Se3& { return s.keyframes[i].T_cw; }) &&
+         KeepChanged(&point_positions, s.points.size(),
+                     [&](size_t i) -> const Eigen::Vector3d& { return s.points[i].position; }) &&
+         KeepChanged(&frame_poses, s.frames.size(), [&](size_t i) -> const Se3& { return s.frames[i].T_wc; });
+}
+
+void SubmapEdit::Apply(Submap* s) const {
+  for (const auto& [i, T] : keyframe_poses) s->keyframes[size_t(i)].T_cw = T;
+  for (const auto& [i, X] : point_positions) s->points[size_t(i)].position = X;
+  for (const auto& [i, T] : frame_poses) s->frames[size_t(i)].T_wc = T;
+}
+
 void MergeMemo::BeginRun(const GlobalMap& map, const SearchSet& search, int64_t max_dt_ns) {
   fingerprint_.assign(map.size(), 0);
   membership_.assign(map.size(), 0);
@@ -121,7 +166,7 @@ MergeReport MergeMemo::Attempt(GlobalMap* map, int front, int other, const Key& 
       return r;
     }
     r.front_moved = JoinComponents(map, front, other, r.S_bf);
-    map->submap(front) = e.front_after;
+    e.front_edit.Apply(&map->submap(front));
     for (const auto& [f, b] : e.fused) map->fused().push_back({front, f, other, b});
     fingerprint_[front] = 0;
     spdlog::info("merged {} with {} as in an earlier rebuild (neither changed): {} common points, {} fused",
@@ -131,12 +176,21 @@ MergeReport MergeMemo::Attempt(GlobalMap* map, int front, int other, const Key& 
   ++misses_;
   const size_t fused_before = map->fused().size();
   Entry e;
+  e.front_edit.Begin(map->submap(front));
   e.report = compute();
   if (e.report.merged) {
-    e.front_after = map->submap(front);
+    fingerprint_[front] = 0;
+    if (!e.front_edit.Finish(map->submap(front))) {
+      spdlog::warn("merge memo: merging {} changed more than poses and positions; not kept",
+                   ToString(e.report.front));
+      used_.erase(key);
+      entries_.erase(key);
+      return e.report;
+    }
     for (size_t k = fused_before; k < map->fused().size(); ++k)
       e.fused.emplace_back(map->fused()[k].dup_point, map->fused()[k].kept_point);
-    fingerprint_[front] = 0;
+  } else {
+    e.front_edit = SubmapEdit();
   }
   return entries_.insert_or_assign(key, std::move(e)).first->second.report;
 }

@@ -10,6 +10,9 @@
 // components, the front takes its stored post-merge state, the fused links
 // are restored. Only merges that involve a changed submap are computed again
 // (in a live session: the growing front submap and what follows from it).
+// The front's post-merge state is kept as an edit (the poses and positions
+// the merge changed, a merge changes nothing else), not as a copy: a copy of
+// every merged front doubled the manager's memory in a long session.
 // The key does not hold the ManagerOptions: use one memo per set of options
 // (the service's are fixed for its lifetime).
 #include <cstdint>
@@ -26,6 +29,22 @@ namespace rumi {
 // octaves, point positions and observations, frame records, odometry
 // (descriptors are not hashed; they never change without the rest).
 uint64_t SubmapFingerprint(const Submap& s);
+
+// What a merge changed in its front submap (index, new value), each list
+// sorted by index: keyframe poses and point positions (fusing, welding) and
+// frame-record poses.
+struct SubmapEdit {
+  std::vector<std::pair<int32_t, Se3>> keyframe_poses;
+  std::vector<std::pair<int32_t, Eigen::Vector3d>> point_positions;
+  std::vector<std::pair<int32_t, Se3>> frame_poses;
+  // Begin takes every pose and position of the submap before the merge;
+  // Finish keeps those the merge changed. False when the merge changed more
+  // than poses and positions (counts): then the edit is unusable.
+  void Begin(const Submap& before);
+  bool Finish(const Submap& after);
+  void Apply(Submap* s) const;
+  size_t size() const { return keyframe_poses.size() + point_positions.size() + frame_poses.size(); }
+};
 
 class MergeMemo {
  public:
@@ -53,7 +72,7 @@ class MergeMemo {
   using Key = std::tuple<uint64_t, uint64_t, uint64_t, uint64_t>;
   struct Entry {
     MergeReport report;
-    Submap front_after;                              // merged only
+    SubmapEdit front_edit;                           // merged only
     std::vector<std::pair<int64_t, int64_t>> fused;  // front point id, other submap's point id
   };
   template <typename Compute>

@@ -97,6 +97,53 @@ TEST(MergeMemo, ReplaysUnchangedMergesAndComputesTheGrownSubmapsOnly) {
   EXPECT_EQ(memo.size(), 2u);
 }
 
+TEST(MergeMemo, ReplaysWeldedMergesBitForBit) {
+  // With the welding BA the merge also moves front keyframes: the replay
+  // (an edit of the changed poses and positions) must still give the
+  // computed map exactly.
+  const auto s = testing::MakeScenario();
+  ManagerOptions o;
+  o.welding_ba = true;
+  MergeMemo memo;
+  GlobalMap first = Inputs(s, s.front_b.submap);
+  ASSERT_EQ(Merged(MergeAll(&first, o, &memo)), 2);
+  GlobalMap second = Inputs(s, s.front_b.submap);
+  ASSERT_EQ(Merged(MergeAll(&second, o, &memo)), 2);
+  EXPECT_EQ(memo.hits(), 2);
+  ExpectSameMap(first, second);
+  // The welding did move keyframes (else this test would not test it).
+  const int f = first.Find({SubmapSource::kFront, s.front_a.submap.id});
+  ASSERT_GE(f, 0);
+  int moved = 0;
+  for (size_t k = 0; k < s.front_a.submap.keyframes.size(); ++k)
+    moved += first.submap(f).keyframes[k].T_cw.translation() != s.front_a.submap.keyframes[k].T_cw.translation();
+  EXPECT_GT(moved, 0);
+}
+
+TEST(SubmapEdit, KeepsOnlyWhatChangedAndRefusesAnotherShape) {
+  const auto s = testing::MakeScenario();
+  const Submap before = s.front_a.submap;
+  Submap after = before;
+  after.keyframes[2].T_cw.translation().x() += 0.01;
+  after.points[5].position.y() -= 0.02;
+  after.points[9].position.z() += 0.03;
+  after.frames.back().T_wc.translation().z() += 0.04;
+  SubmapEdit edit;
+  edit.Begin(before);
+  ASSERT_TRUE(edit.Finish(after));
+  EXPECT_EQ(edit.keyframe_poses.size(), 1u);
+  EXPECT_EQ(edit.point_positions.size(), 2u);
+  EXPECT_EQ(edit.frame_poses.size(), 1u);
+  Submap replayed = before;
+  edit.Apply(&replayed);
+  EXPECT_EQ(SubmapFingerprint(replayed), SubmapFingerprint(after));
+
+  Submap fewer = before;
+  fewer.points.pop_back();
+  edit.Begin(before);
+  EXPECT_FALSE(edit.Finish(fewer));
+}
+
 TEST(MergeMemo, AChangedBackOrSearchSetRecomputes) {
   const auto s = testing::MakeScenario();
   MergeMemo memo;

@@ -3,17 +3,28 @@
 // of a real run without the three processes.
 //   rumi-merge-replay --map FILE [--config FILE] [--trajectory OUT.txt]
 //                     [--no-frame-pairs] [--no-post-culling]
+//                     [--session-bench OUT_DIR [--rebuild-every N]]
+// --session-bench replays a live session instead: the submaps go to a
+// ManagerService (the manager process's core) one by one in the order they
+// ended, with a rebuild and save after every N, and each rebuild prints its
+// time per phase and the process's resident memory (a benchmark of how the
+// manager scales with a long session, without the hour it took).
 // Prints one line per merge attempt and writes the largest component's
 // trajectory (TUM) like merged.txt. Exit 0 on success, 1 on a runtime error,
 // 2 on a bad command line or config.
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
 #include <iostream>
 
 #include "configs/rumi_config.h"
 #include "common/logging.h"
+#include "common/process/process_info.h"
 #include "manager/global_trajectory.h"
+#include "manager/manager_run.h"
 #include "manager/manager_service.h"
 #include "manager/map_file.h"
 #include "manager/merge.h"
@@ -24,6 +35,57 @@
 
 namespace rumi {
 namespace {
+
+Timestamp LastTime(const Submap& s) {
+  Timestamp t = 0;
+  for (const Keyframe& kf : s.keyframes) t = std::max(t, kf.timestamp);
+  for (const FrameRecord& f : s.frames) t = std::max(t, f.timestamp);
+  return t;
+}
+
+int SessionBench(const GlobalMap& raw, const RumiConfig& config, const std::string& out, int every) {
+  std::vector<int> order(raw.size());
+  for (size_t i = 0; i < raw.size(); ++i) order[i] = int(i);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return LastTime(raw.submap(a)) < LastTime(raw.submap(b)); });
+  ManagerServiceOptions so;
+  so.manager = config.manager;
+  so.grid = config.grid;
+  so.out_dir = out;
+  std::error_code ec;
+  std::filesystem::remove(so.MapPath(), ec);
+  std::filesystem::remove(so.MapPath() + ".raw", ec);
+  ManagerService service(so);
+  std::string why;
+  if (!service.Start(&why)) {
+    std::cerr << "rumi-merge-replay: " << why << "\n";
+    return 1;
+  }
+  std::cout << "rebuild\tsubmaps\tkeyframes\tkept\tcomponents\tcomputed\treplayed\ttotal_s\tcopy_s\tmerge_s\t"
+               "place_s\todometry_s\tculling_s\tfront_search_s\tsave_raw_s\tsave_map_s\toutputs_s\trss_mib\n";
+  for (size_t i = 0; i < order.size(); ++i) {
+    service.AddSubmap(raw.submap(order[i]));
+    if ((i + 1) % size_t(every) != 0 && i + 1 != order.size()) continue;
+    const auto t0 = std::chrono::steady_clock::now();
+    // The map file and the raw submaps as the manager's loop writes them.
+    const bool map_files = i + 1 == order.size() ||
+                           MapSaveDue(config.manager_loop, service.SecondsSinceMapSave(),
+                                      service.stats().last_map_save_seconds);
+    if (!service.Rebuild(&why, nullptr, {}, map_files)) {
+      std::cerr << "rumi-merge-replay: " << why << "\n";
+      return 1;
+    }
+    const ManagerStats& st = service.stats();
+    const ManagerStats::Phases& p = st.last_rebuild_phases;
+    std::cout << fmt::format("{}\t{}\t{}\t{}\t{}\t{}\t{}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.0f}\n",
+                             st.rebuilds, i + 1, st.saved_frames, st.saved_frames_postculled, st.components,
+                             st.merge_attempts - st.merges_replayed, st.merges_replayed, SecondsSince(t0), p.copy,
+                             p.merge, p.place, p.odometry, p.culling, st.culling.seconds_front_search, p.save_raw, p.save_map, p.outputs,
+                             ResidentMiB())
+              << std::flush;
+  }
+  return 0;
+}
 
 int Main(int argc, char** argv) {
   CLI::App app{"rumi-merge-replay: re-runs the manager's merge on a saved map"};
@@ -38,6 +100,12 @@ int Main(int argc, char** argv) {
   app.add_flag("--no-frame-pairs", no_frame_pairs, "manager.pair_tracked_frames = false");
   app.add_flag("--no-post-culling", no_culling, "skip redundant-keyframe culling");
   app.add_option("--complete-back-tracks", complete_px, "track completion radius (px) for back submaps (0 = off)");
+  std::string bench_dir;
+  int rebuild_every = 1;
+  app.add_option("--session-bench", bench_dir,
+                 "replay the submaps as a live session into a manager writing to this folder; print each rebuild");
+  app.add_option("--rebuild-every", rebuild_every, "with --session-bench: rebuild after every N submaps")
+      ->check(CLI::Range(1, 100000));
   app.add_option("--min-back-observations", min_back_obs,
                  "first drop back-submap points seen by fewer keyframes (what back.min_point_observations does)");
   CLI11_PARSE(app, argc, argv);
@@ -58,6 +126,7 @@ int Main(int argc, char** argv) {
     std::cerr << "rumi-merge-replay: cannot load " << map_path << ": " << why << "\n";
     return 1;
   }
+  if (!bench_dir.empty()) return SessionBench(map, config, bench_dir, rebuild_every);
   if (complete_px > 0) {
     for (size_t i = 0; i < map.size(); ++i)
       if (map.submap(int(i)).source == SubmapSource::kBack) {

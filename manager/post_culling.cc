@@ -1,11 +1,13 @@
 #include "manager/post_culling.h"
 
 #include <algorithm>
+#include <chrono>
 #include <map>
 #include <unordered_map>
 #include <unordered_set>
 
 #include "common/logging.h"
+#include "common/timestamp.h"
 #include "manager/front_point_search.h"
 #include "manager/submap_index.h"
 
@@ -70,7 +72,9 @@ CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& optio
   // Front points found in back keyframes: more observers of those points, and
   // more points of those keyframes.
   std::map<std::pair<int, int64_t>, std::vector<std::pair<int, uint8_t>>> extra;  // keyframe -> (cluster, octave)
+  const auto search_start = std::chrono::steady_clock::now();
   const std::vector<CrossObservation> cross = SearchFrontPoints(*map, options);
+  rep.seconds_front_search = SecondsSince(search_start);
   rep.front_points_found = int(cross.size());
   for (const CrossObservation& x : cross) {
     const int c = clusters.Id(x.front, x.point_id);

@@ -17,6 +17,7 @@ struct CullingReport {
   int points_before = 0, points_after = 0;
   int culled_back = 0, culled_front = 0;
   int front_points_found = 0;  // observations added by SearchFrontPoints
+  double seconds_front_search = 0;  // of the culling's time, SearchFrontPoints'
   // Why back keyframes stay: over the back keyframes examined, the median
   // share of their points seen by culling_min_observers others (culling
   // needs culling_redundant_ratio), at the time each was examined.

@@ -4,30 +4,60 @@
 # `rumi status --csv`: RSS and open fds of rumid and each child, restarts,
 # submaps, merges, rebuild time, back windows. Prints the samples, then per
 # process RSS and fds after warm-up (first sample after 5 min) against the
-# end, the largest rebuild time, and merges / windows per hour.
-#   scripts/soak.sh [MINUTES] [OUT]          (OUT default /tmp/rumi-soak)
+# end, the largest rebuild time, merges / windows per hour, and the median
+# RSS per 2-minute window.
+#   scripts/soak.sh [MINUTES] [OUT] [SEQUENCE]    (OUT default /tmp/rumi-soak)
+# SEQUENCE: `dark` (default: 300 frames 640x480 `dark` seed 2 with its
+# odometry, sequential back matcher) or `walk` (a 60 s QVGA smooth walk,
+# seed 2, under the bundled configs/daemon.yaml: the memory soak of
+# docs/results/2026-11-25-front-split-and-soak.md).
 # Needs the executables (scripts/setup.sh rumid rumi rumi-front rumi-back rumi-manager).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 minutes=${1:-35}
 out=${2:-/tmp/rumi-soak}
-seq="$out/dark"
+sequence=${3:-dark}
+seq="$out/$sequence"
 state="$out/state"
 mkdir -p "$out"
 for b in rumid rumi rumi-front rumi-back rumi-manager; do
   [ -x "build/bin/$b" ] || { echo "soak: build/bin/$b missing: scripts/setup.sh rumid rumi rumi-front rumi-back rumi-manager" >&2; exit 1; }
 done
-if [ ! -f "$seq/scenario.json" ]; then
-  build/bin/rumi synth "$seq" --scenario dark --seed 2 --frames 300 --dark-gain 0.02 > "$out/synth.log" 2>&1
-fi
 cfg="$out/soak.yaml"
-{
-  cat "$seq/camera.yaml"
-  echo "log_level: info"
-  echo "source: {kind: dataset, dataset: tum, path: $seq, odometry: $seq/odometry.txt, loop: true}"
-  echo "back: {matcher: sequential, max_num_features: 1024}"
-  echo "daemon: {child_output: files, state_dir: $state}"
-} > "$cfg"
+case "$sequence" in
+  dark)
+    [ -f "$seq/scenario.json" ] ||
+      build/bin/rumi synth "$seq" --scenario dark --seed 2 --frames 300 --dark-gain 0.02 > "$out/synth.log" 2>&1
+    {
+      cat "$seq/camera.yaml"
+      echo "log_level: info"
+      echo "source: {kind: dataset, dataset: tum, path: $seq, odometry: $seq/odometry.txt, loop: true}"
+      echo "back: {matcher: sequential, max_num_features: 1024}"
+      echo "daemon: {child_output: files, state_dir: $state}"
+    } > "$cfg"
+    ;;
+  walk)
+    command -v python3 > /dev/null || { echo "soak: python3 missing (apt install python3)" >&2; exit 1; }
+    [ -f "$seq/scenario.json" ] ||
+      build/bin/rumi synth "$seq" --scenario smooth --seed 2 --frames 1800 --size 320x240 --supersample 1 \
+        > "$out/synth.log" 2>&1
+    # The bundled daemon config with the walk, looped, as its source.
+    python3 - configs/daemon.yaml "$cfg" "$seq" "$state" <<'PY'
+import re, sys
+src, dst, seq, state = sys.argv[1:]
+text = open(src).read()
+source = f"source:\n  kind: dataset\n  dataset: tum\n  path: {seq}\n  calibration: {seq}/camera.yaml\n  loop: true\n"
+text = re.sub(r"^source:\n(?:[ #].*\n|\n)*", source, text, flags=re.M)
+text = re.sub(r"^daemon:\n", f"daemon:\n  state_dir: {state}\n", text, count=1, flags=re.M)
+open(dst, "w").write(text.replace("child_output: journal", "child_output: files"))
+PY
+    ;;
+  *)
+    echo "soak: unknown sequence '$sequence' (dark or walk)" >&2
+    exit 2
+    ;;
+esac
+build/bin/rumi config check "$cfg" > /dev/null
 rm -rf "$state"
 build/bin/rumid --config "$cfg" --instance soak > "$out/rumid.log" 2>&1 &
 rumid=$!
@@ -78,3 +108,13 @@ awk -F, '
         (z[col["windows_built"]] - a[col["windows_built"]]) / hours, max_rebuild,
         z[col["front_restarts"]], z[col["back_restarts"]], z[col["manager_restarts"]]
   }' "$csv"
+python3 - "$csv" <<'PY' || true
+import csv, statistics, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+procs = ["front", "back", "manager"]
+print("window_s\t" + "\t".join(f"{p}_rss_mib" for p in procs) + "\t(median per 2-minute window)")
+for a in range(0, int(float(rows[-1]["uptime_s"])) + 1, 120) if rows else []:
+    w = [r for r in rows if a <= float(r["uptime_s"]) < a + 120]
+    if w:
+        print(f"{a}-{a + 120}\t" + "\t".join(f"{statistics.median(float(r[p + '_rss_mib']) for r in w):.0f}" for p in procs))
+PY

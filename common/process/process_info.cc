@@ -4,6 +4,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
 #include <string>
 #include <unistd.h>
 
@@ -56,6 +57,13 @@ bool ProcessAlive(const ProcessId& id) {
   buf[n] = '\0';
   const char* p = std::strrchr(buf, ')');
   return !(p && p[1] == ' ' && (p[2] == 'Z' || p[2] == 'X'));
+}
+
+double ResidentMiB(pid_t pid) {
+  std::ifstream in("/proc/" + (pid > 0 ? std::to_string(pid) : std::string("self")) + "/status");
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;  // kB
+  return -1;
 }
 
 }  // namespace rumi

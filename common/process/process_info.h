@@ -21,4 +21,8 @@ inline bool ProcessRunning(pid_t pid) {
   return pid > 0 && ProcessAlive({static_cast<uint64_t>(pid), ProcessStartTicks(pid)});
 }
 
+// Resident memory of a process (VmRSS), MiB (0: this process); -1 when
+// unknown (no such process).
+double ResidentMiB(pid_t pid = 0);
+
 }  // namespace rumi

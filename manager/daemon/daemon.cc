@@ -17,6 +17,7 @@
 #include "common/atomic_file.h"
 #include "common/process/exit_codes.h"
 #include "common/process/notify.h"
+#include "common/process/process_info.h"
 #include "common/process/subprocess.h"
 #include "common/process/supervisor.h"
 #include "ipc/segments.h"
@@ -58,10 +59,7 @@ void SetIdBase(const StateDirLayout& layout, std::vector<std::string>* argv) {
 
 // Resident memory (MiB) and open file descriptors of a process; -1 unknown.
 void AddResources(pid_t pid, nlohmann::json* j) {
-  double rss = -1;
-  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
-  for (std::string line; std::getline(in, line);)
-    if (line.rfind("VmRSS:", 0) == 0) rss = std::stod(line.substr(6)) / 1024.0;
+  const double rss = ResidentMiB(pid);
   int fds = 0;
   std::error_code ec;
   for (auto it = fs::directory_iterator("/proc/" + std::to_string(pid) + "/fd", ec); !ec && it != fs::directory_iterator();
