@@ -42,6 +42,39 @@ int DropWeakPoints(Submap* submap, int min_observations) {
   return static_cast<int>(weak.size());
 }
 
+Submap SubmapUntil(const Submap& s, Timestamp t) {
+  Submap out;
+  out.id = s.id;
+  out.source = s.source;
+  out.camera = s.camera;
+  std::unordered_set<int64_t> kept_keyframes;
+  for (const Keyframe& kf : s.keyframes)
+    if (kf.timestamp <= t) {
+      out.keyframes.push_back(kf);
+      kept_keyframes.insert(kf.id);
+    }
+  std::unordered_set<int64_t> kept_points;
+  for (const MapPoint& p : s.points) {
+    MapPoint q;
+    for (const MapPoint::Observation& o : p.observations)
+      if (kept_keyframes.count(o.keyframe_id)) q.observations.push_back(o);
+    if (q.observations.empty()) continue;
+    q.id = p.id;
+    q.position = p.position;
+    q.descriptor = p.descriptor;
+    kept_points.insert(p.id);
+    out.points.push_back(std::move(q));
+  }
+  for (Keyframe& kf : out.keyframes)
+    for (int64_t& id : kf.point_ids)
+      if (id >= 0 && !kept_points.count(id)) id = -1;
+  for (const FrameRecord& f : s.frames)
+    if (f.timestamp <= t) out.frames.push_back(f);
+  for (const OdometryPose& o : s.odometry)
+    if (o.timestamp <= t) out.odometry.push_back(o);
+  return out;
+}
+
 int CompleteTracks(Submap* submap, double max_px, double ratio) {
   const CameraIntrinsics& cam = submap->camera;
   if (!(max_px > 0) || cam.fx <= 0 || cam.fy <= 0) return 0;

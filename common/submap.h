@@ -88,6 +88,12 @@ size_t TrackedFrames(const Submap& s);
 // map would have culled. Returns the number removed.
 int DropWeakPoints(Submap* submap, int min_observations);
 
+// The submap as it stood at time t: keyframes, frames and odometry up to t,
+// the points those keyframes observe (with only their observations; a point
+// left with none is dropped and unlinked). What a front resend of a submap
+// still being built looks like (a real one also differs by the BA since).
+Submap SubmapUntil(const Submap& s, Timestamp t);
+
 // Track completion by reprojection: a point is also observed by a keyframe
 // where it projects (in front of the camera, inside the image) within
 // max_px of a keypoint that has no point yet, and the nearest such keypoint is

@@ -49,6 +49,29 @@ TEST(Submap, DropWeakPointsRemovesPointsAndTheirLinks) {
   EXPECT_EQ(s.points.size(), 3u);
 }
 
+TEST(Submap, SubmapUntilKeepsWhatTheFirstKeyframesSaw) {
+  Submap s = ThreeKeyframes();
+  s.id = 7;
+  s.keyframes[2].point_ids[2] = 13;  // seen by the last keyframe only
+  MapPoint p13;
+  p13.id = 13;
+  p13.observations.push_back({2, 2});
+  s.points.push_back(p13);
+  for (int k = 0; k < 3; ++k) s.frames.push_back({Timestamp(k + 1), TrackingState::kTracking, 7, Se3()});
+
+  const Submap u = SubmapUntil(s, 2);
+  EXPECT_EQ(u.id, 7);
+  ASSERT_EQ(u.keyframes.size(), 2u);
+  EXPECT_EQ(u.frames.size(), 2u);
+  ASSERT_EQ(u.points.size(), 3u);  // 10, 11, 12; 13 had no observation left
+  EXPECT_EQ(u.points[0].observations.size(), 2u);  // 10 lost kf 2's
+  EXPECT_EQ(u.points[1].observations.size(), 2u);
+  EXPECT_EQ(u.points[2].id, 12);
+  EXPECT_EQ(SubmapUntil(s, 3).points.size(), 4u);
+  EXPECT_TRUE(SubmapUntil(s, 0).keyframes.empty());
+  EXPECT_TRUE(SubmapUntil(s, 0).points.empty());
+}
+
 // Two points in front of three cameras along x; each keyframe has a free
 // keypoint where the points project (plus offsets), point 0 observed by
 // keyframe 0 only, point 1 by keyframes 0 and 1.

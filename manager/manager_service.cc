@@ -249,6 +249,7 @@ bool ManagerService::AddSubmap(Submap s) {
     spdlog::error("manager: cannot journal {}: {}", ToString(key), why);
   }
   if (key.source == SubmapSource::kBack) stats_.back_times.try_emplace(key.id, ManagerStats::BackTimes{WallNowNs(), 0});
+  received_fp_.erase(key);
   auto it = received_.find(key);
   if (it != received_.end()) {
     ++stats_.resends;
@@ -302,6 +303,16 @@ bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel,
   for (const auto& kv : received_) replaced.push_back(kv.first);
   GlobalMap map = CopyWithout(base_, replaced);
   for (const auto& kv : received_) map.AddSubmap(kv.second);
+  {
+    std::vector<uint64_t> content(map.size(), 0);  // base_ submaps: hashed by the memo
+    for (const auto& [key, submap] : received_) {
+      auto [it, inserted] = received_fp_.try_emplace(key, 0);
+      if (inserted) it->second = SubmapFingerprint(submap);
+      const int i = map.Find(key);
+      if (i >= 0) content[size_t(i)] = it->second;
+    }
+    merge_memo_.SetContentFingerprints(std::move(content));
+  }
   // The newest front submap and how far its frames go (a resent snapshot of
   // a submap still being built ends earlier than its finished version).
   int64_t front_upto = -1;

@@ -147,6 +147,9 @@ class ManagerService {
   ManagerServiceOptions options_;
   GlobalMap base_;  // reloaded at start
   std::map<SubmapKey, Submap> received_;
+  // SubmapFingerprint of each received_ version (merge_memo.h), hashed once
+  // per version, not at every rebuild; erased when a version is replaced.
+  std::map<SubmapKey, uint64_t> received_fp_;
   PlaceMergeMemo place_memo_;  // place-merge rejections, kept across rebuilds
   MergeMemo merge_memo_;       // merges of unchanged submaps, replayed
   GlobalMap map_;  // current product

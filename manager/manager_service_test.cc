@@ -306,6 +306,10 @@ TEST(ManagerService, ResentFrontSubmapReplacesTheEarlierVersion) {
   const int b = svc.map().Find({SubmapSource::kFront, 2});
   ASSERT_GE(b, 0);
   EXPECT_EQ(svc.map().submap(b).frames.back().timestamp, s.scene.timestamps[110]);
+  // Nothing new: both replayed, from the fingerprints hashed when received.
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_EQ(svc.stats().merges_replayed, 2);
+  ExpectMatchesTruth(s, ReadTum(dir / "merged.txt"), 0, 110);
 }
 
 TEST(ManagerService, ReloadedMapTakesNewSubmapsAndResends) {

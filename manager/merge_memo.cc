@@ -40,6 +40,15 @@ class Hasher {
 
 }  // namespace
 
+uint64_t MergeMemo::KeyHash(const Key& key) {
+  Hasher h;
+  h.Add(std::get<0>(key));
+  h.Add(std::get<1>(key));
+  h.Add(std::get<2>(key));
+  h.Add(std::get<3>(key));
+  return h.value();
+}
+
 uint64_t SubmapFingerprint(const Submap& s) {
   Hasher h;
   h.Add(int(s.source));
@@ -125,8 +134,15 @@ void SubmapEdit::Apply(Submap* s) const {
   for (const auto& [i, T] : frame_poses) s->frames[size_t(i)].T_wc = T;
 }
 
+void MergeMemo::StartFingerprints(const GlobalMap& map) {
+  if (content_.size() == map.size()) fingerprint_ = std::move(content_);
+  else fingerprint_.assign(map.size(), 0);
+  content_.clear();
+}
+
 void MergeMemo::BeginRun(const GlobalMap& map, const SearchSet& search, int64_t max_dt_ns) {
-  fingerprint_.assign(map.size(), 0);
+  StartFingerprints(map);
+  chained_ = true;
   membership_.assign(map.size(), 0);
   for (auto it = used_.begin(); it != used_.end();) it = std::get<0>(*it) == kBackMerge ? used_.erase(it) : std::next(it);
   hits_ = misses_ = 0;
@@ -168,7 +184,7 @@ MergeReport MergeMemo::Attempt(GlobalMap* map, int front, int other, const Key& 
     r.front_moved = JoinComponents(map, front, other, r.S_bf);
     e.front_edit.Apply(&map->submap(front));
     for (const auto& [f, b] : e.fused) map->fused().push_back({front, f, other, b});
-    fingerprint_[front] = 0;
+    fingerprint_[front] = KeyHash(key);
     spdlog::info("merged {} with {} as in an earlier rebuild (neither changed): {} common points, {} fused",
                  ToString(r.front), ToString(r.back), r.common_points, r.fused_points);
     return r;
@@ -179,8 +195,9 @@ MergeReport MergeMemo::Attempt(GlobalMap* map, int front, int other, const Key& 
   e.front_edit.Begin(map->submap(front));
   e.report = compute();
   if (e.report.merged) {
-    fingerprint_[front] = 0;
+    fingerprint_[front] = KeyHash(key);
     if (!e.front_edit.Finish(map->submap(front))) {
+      fingerprint_[front] = 0;
       spdlog::warn("merge memo: merging {} changed more than poses and positions; not kept",
                    ToString(e.report.front));
       used_.erase(key);
@@ -203,7 +220,8 @@ MergeReport MergeMemo::Merge(GlobalMap* map, int front, int back, const SearchSe
 }
 
 void MergeMemo::BeginPlaceRun(const GlobalMap& map) {
-  fingerprint_.assign(map.size(), 0);
+  if (!chained_ || fingerprint_.size() != map.size()) StartFingerprints(map);
+  chained_ = false;
   for (auto it = used_.begin(); it != used_.end();) it = std::get<0>(*it) == kPlaceMerge ? used_.erase(it) : std::next(it);
 }
 

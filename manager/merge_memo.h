@@ -50,6 +50,11 @@ class MergeMemo {
  public:
   // Starts a MergeAll run over `map`'s current submaps with this F^search
   // (and resets hits / misses).
+  // With content fingerprints (SubmapFingerprint per map index, 0: hash it
+  // here) set just before, for the map of the next BeginRun or BeginPlaceRun:
+  // a caller that keeps its submaps across rebuilds hashes each version once
+  // (hashing a whole long session at every rebuild took 0.2 s).
+  void SetContentFingerprints(std::vector<uint64_t> fingerprints) { content_ = std::move(fingerprints); }
   void BeginRun(const GlobalMap& map, const SearchSet& search, int64_t max_dt_ns);
   // MergePair, or its replay when the memo holds the same attempt.
   MergeReport Merge(GlobalMap* map, int front, int back, const SearchSet& search, const ManagerOptions& options);
@@ -58,6 +63,8 @@ class MergeMemo {
 
   // The same for PlaceMergeAll (front submap `a` is the one that moves and
   // is welded, as in PlaceMergePair); hits and misses add to the run's.
+  // Called on the same map right after a MergeAll run, it goes on with that
+  // run's fingerprints (the map must not change in between).
   void BeginPlaceRun(const GlobalMap& map);
   MergeReport Place(GlobalMap* map, int a, int b, const ManagerOptions& options);
   void EndPlaceRun();
@@ -79,10 +86,16 @@ class MergeMemo {
   MergeReport Attempt(GlobalMap* map, int front, int other, const Key& key, Compute compute);
   void Drop(Kind kind);
   uint64_t Fingerprint(const GlobalMap& map, int i);
+  void StartFingerprints(const GlobalMap& map);
+  static uint64_t KeyHash(const Key& key);
 
   std::map<Key, Entry> entries_;
   std::set<Key> used_;
-  std::vector<uint64_t> fingerprint_;  // per map index; 0: not computed
+  // Per map index; 0: not computed. A merge's outcome depends only on its
+  // key, so the front's fingerprint after it is the key's hash (no rehash).
+  std::vector<uint64_t> fingerprint_;
+  std::vector<uint64_t> content_;  // SetContentFingerprints, for the next run
+  bool chained_ = false;           // fingerprint_ is BeginRun's map's
   std::vector<uint64_t> membership_;   // per back index
   int hits_ = 0, misses_ = 0;
 };

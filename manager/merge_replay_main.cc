@@ -3,10 +3,11 @@
 // of a real run without the three processes.
 //   rumi-merge-replay --map FILE [--config FILE] [--trajectory OUT.txt]
 //                     [--no-frame-pairs] [--no-post-culling]
-//                     [--session-bench OUT_DIR [--rebuild-every N]]
+//                     [--session-bench OUT_DIR [--rebuild-every N] [--resends]]
 // --session-bench replays a live session instead: the submaps go to a
 // ManagerService (the manager process's core) one by one in the order they
-// ended, with a rebuild and save after every N, and each rebuild prints its
+// ended (with --resends, also each front submap cut as the front resends it
+// while it grows), with a rebuild after every N, and each rebuild prints its
 // time per phase and the process's resident memory (a benchmark of how the
 // manager scales with a long session, without the hour it took).
 // Prints one line per merge attempt and writes the largest component's
@@ -43,11 +44,38 @@ Timestamp LastTime(const Submap& s) {
   return t;
 }
 
-int SessionBench(const GlobalMap& raw, const RumiConfig& config, const std::string& out, int every) {
-  std::vector<int> order(raw.size());
-  for (size_t i = 0; i < raw.size(); ++i) order[i] = int(i);
-  std::stable_sort(order.begin(), order.end(),
-                   [&](int a, int b) { return LastTime(raw.submap(a)) < LastTime(raw.submap(b)); });
+// One submap as the manager receives it: a finished submap, or (with
+// resends) a front submap still being built, cut at `until`.
+struct SessionEvent {
+  Timestamp at;
+  int submap;
+  bool resend;
+};
+
+// Submaps in the order they ended; with resends, each front submap is also
+// sent cut at every resend_interval_s of its time, once it has
+// resend_min_keyframes (what front_publisher.cc does while it tracks).
+std::vector<SessionEvent> SessionEvents(const GlobalMap& raw, const FrontPublisherOptions* resends) {
+  std::vector<SessionEvent> events;
+  for (size_t i = 0; i < raw.size(); ++i) {
+    const Submap& s = raw.submap(int(i));
+    events.push_back({LastTime(s), int(i), false});
+    if (!resends || resends->resend_interval_s <= 0 || s.source != SubmapSource::kFront || s.keyframes.empty())
+      continue;
+    const Timestamp step = SecondsToNs(resends->resend_interval_s);
+    for (Timestamp t = s.keyframes.front().timestamp + step; t < LastTime(s); t += step) {
+      const auto kfs = std::count_if(s.keyframes.begin(), s.keyframes.end(),
+                                     [&](const Keyframe& kf) { return kf.timestamp <= t; });
+      if (kfs >= resends->resend_min_keyframes) events.push_back({t, int(i), true});
+    }
+  }
+  std::stable_sort(events.begin(), events.end(),
+                   [](const SessionEvent& a, const SessionEvent& b) { return a.at < b.at; });
+  return events;
+}
+
+int SessionBench(const GlobalMap& raw, const RumiConfig& config, const std::string& out, int every, bool resends) {
+  const std::vector<SessionEvent> events = SessionEvents(raw, resends ? &config.publisher : nullptr);
   ManagerServiceOptions so;
   so.manager = config.manager;
   so.grid = config.grid;
@@ -63,12 +91,15 @@ int SessionBench(const GlobalMap& raw, const RumiConfig& config, const std::stri
   }
   std::cout << "rebuild\tsubmaps\tkeyframes\tkept\tcomponents\tcomputed\treplayed\ttotal_s\tcopy_s\tmerge_s\t"
                "place_s\todometry_s\tculling_s\tfront_search_s\tsave_raw_s\tsave_map_s\toutputs_s\trss_mib\n";
-  for (size_t i = 0; i < order.size(); ++i) {
-    service.AddSubmap(raw.submap(order[i]));
-    if ((i + 1) % size_t(every) != 0 && i + 1 != order.size()) continue;
+  size_t finished = 0;
+  for (size_t i = 0; i < events.size(); ++i) {
+    const SessionEvent& e = events[i];
+    service.AddSubmap(e.resend ? SubmapUntil(raw.submap(e.submap), e.at) : raw.submap(e.submap));
+    finished += !e.resend;
+    if ((i + 1) % size_t(every) != 0 && i + 1 != events.size()) continue;
     const auto t0 = std::chrono::steady_clock::now();
     // The map file and the raw submaps as the manager's loop writes them.
-    const bool map_files = i + 1 == order.size() ||
+    const bool map_files = i + 1 == events.size() ||
                            MapSaveDue(config.manager_loop, service.SecondsSinceMapSave(),
                                       service.stats().last_map_save_seconds);
     if (!service.Rebuild(&why, nullptr, {}, map_files)) {
@@ -78,7 +109,7 @@ int SessionBench(const GlobalMap& raw, const RumiConfig& config, const std::stri
     const ManagerStats& st = service.stats();
     const ManagerStats::Phases& p = st.last_rebuild_phases;
     std::cout << fmt::format("{}\t{}\t{}\t{}\t{}\t{}\t{}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.0f}\n",
-                             st.rebuilds, i + 1, st.saved_frames, st.saved_frames_postculled, st.components,
+                             st.rebuilds, finished, st.saved_frames, st.saved_frames_postculled, st.components,
                              st.merge_attempts - st.merges_replayed, st.merges_replayed, SecondsSince(t0), p.copy,
                              p.merge, p.place, p.odometry, p.culling, st.culling.seconds_front_search, p.save_raw, p.save_map, p.outputs,
                              ResidentMiB())
@@ -106,6 +137,10 @@ int Main(int argc, char** argv) {
                  "replay the submaps as a live session into a manager writing to this folder; print each rebuild");
   app.add_option("--rebuild-every", rebuild_every, "with --session-bench: rebuild after every N submaps")
       ->check(CLI::Range(1, 100000));
+  bool resends = false;
+  app.add_flag("--resends", resends,
+               "with --session-bench: also send each front submap while it grows, as the front resends it "
+               "(front.publisher.resend_interval_s); a rebuild counts as one submap received");
   app.add_option("--min-back-observations", min_back_obs,
                  "first drop back-submap points seen by fewer keyframes (what back.min_point_observations does)");
   CLI11_PARSE(app, argc, argv);
@@ -126,7 +161,7 @@ int Main(int argc, char** argv) {
     std::cerr << "rumi-merge-replay: cannot load " << map_path << ": " << why << "\n";
     return 1;
   }
-  if (!bench_dir.empty()) return SessionBench(map, config, bench_dir, rebuild_every);
+  if (!bench_dir.empty()) return SessionBench(map, config, bench_dir, rebuild_every, resends);
   if (complete_px > 0) {
     for (size_t i = 0; i < map.size(); ++i)
       if (map.submap(int(i)).source == SubmapSource::kBack) {

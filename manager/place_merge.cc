@@ -6,9 +6,9 @@
 #include <chrono>
 #include <map>
 #include <opencv2/core.hpp>
-#include <opencv2/features2d.hpp>
 
 #include "common/logging.h"
+#include "common/orb_extractor.h"
 #include "common/timestamp.h"
 #include "manager/sim3_alignment.h"
 #include "manager/sim3_refine.h"
@@ -19,15 +19,18 @@ namespace {
 
 MergeReport Reject(MergeReport r, const std::string& why) { return RejectMerge(std::move(r), "place merge", why); }
 
-// Descriptor rows of the points that qualify, and their indices.
-cv::Mat PointDescriptors(const Submap& s, std::vector<int>* index) {
-  cv::Mat d;
+// Descriptors (32-byte ORB rows, packed) of the points that qualify, and
+// their indices.
+std::vector<uint8_t> PointDescriptors(const Submap& s, std::vector<int>* index) {
+  std::vector<uint8_t> d;
   index->clear();
   for (size_t i = 0; i < s.points.size(); ++i) {
     const MapPoint& p = s.points[i];
-    if (p.observations.size() < 2 || p.descriptor.empty() || p.descriptor.type() != CV_8U) continue;
-    if (!d.empty() && p.descriptor.cols != d.cols) continue;
-    d.push_back(p.descriptor.row(0));
+    if (p.observations.size() < 2 || p.descriptor.type() != CV_8U || p.descriptor.cols != 32 ||
+        p.descriptor.rows < 1)
+      continue;
+    const uint8_t* row = p.descriptor.ptr<uint8_t>(0);
+    d.insert(d.end(), row, row + 32);
     index->push_back(int(i));
   }
   return d;
@@ -54,16 +57,31 @@ std::vector<int64_t> SeedKeyframes(const Submap& s, const std::vector<int64_t>& 
 
 std::vector<PointMatch> MatchMapPoints(const Submap& a, const Submap& b, int max_hamming, double ratio) {
   std::vector<int> ia, ib;
-  const cv::Mat da = PointDescriptors(a, &ia), db = PointDescriptors(b, &ib);
-  if (da.empty() || db.rows < 2 || da.cols != db.cols) return {};
-  std::vector<std::vector<cv::DMatch>> knn;
-  cv::BFMatcher(cv::NORM_HAMMING).knnMatch(da, db, knn, 2);
-  std::map<int, std::pair<float, int>> best_for_b;  // b row -> (distance, a row)
-  for (const auto& m : knn) {
-    if (m.size() < 2 || m[0].distance > max_hamming || m[0].distance >= ratio * m[1].distance) continue;
-    auto it = best_for_b.find(m[0].trainIdx);
-    if (it == best_for_b.end() || m[0].distance < it->second.first)
-      best_for_b[m[0].trainIdx] = {m[0].distance, m[0].queryIdx};
+  const std::vector<uint8_t> da = PointDescriptors(a, &ia), db = PointDescriptors(b, &ib);
+  if (ia.empty() || ib.size() < 2) return {};
+  // Brute force with the popcount kernel: every pair of two submaps of ~10^4
+  // points each is ~10^8 distances, and cv::BFMatcher's per-row overhead
+  // doubled that cost (a place merge is tried at every rebuild that changed
+  // a front submap).
+  std::map<int, std::pair<int, int>> best_for_b;  // b row -> (distance, a row)
+  for (size_t r = 0; r < ia.size(); ++r) {
+    const uint8_t* q = &da[r * 32];
+    int d1 = 257, d2 = 257, j1 = -1;
+    for (size_t c = 0; c < ib.size(); ++c) {
+      const int d = DescriptorDistance(q, &db[c * 32]);
+      if (d < d2) {
+        if (d < d1) {
+          d2 = d1;
+          d1 = d;
+          j1 = int(c);
+        } else {
+          d2 = d;
+        }
+      }
+    }
+    if (j1 < 0 || d1 > max_hamming || !(d1 < ratio * d2)) continue;
+    auto it = best_for_b.find(j1);
+    if (it == best_for_b.end() || d1 < it->second.first) best_for_b[j1] = {d1, int(r)};
   }
   std::vector<PointMatch> out;
   for (const auto& [brow, v] : best_for_b) out.push_back({a.points[ia[v.second]].id, b.points[ib[brow]].id, 1});
@@ -151,10 +169,15 @@ std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& opt
   std::vector<std::pair<int, int>> tried;  // data unchanged: no retry
   for (bool progress = true; progress;) {
     progress = false;
-    for (int i = 0; i < int(map->size()); ++i) {
-      if (map->submap(i).source != SubmapSource::kFront) continue;
-      for (int j = i + 1; j < int(map->size()); ++j) {
-        if (map->submap(j).source != SubmapSource::kFront || map->Connected(i, j)) continue;
+    for (int j = 0; j < int(map->size()); ++j) {
+      if (map->submap(j).source != SubmapSource::kFront) continue;
+      std::vector<int> order;
+      for (int i = 0; i < j; ++i) order.push_back(i);
+      const SubmapKey* partner = memo ? memo->Partner(map->Key(j)) : nullptr;
+      const int first = partner ? map->Find(*partner) : -1;
+      if (first >= 0 && first < j) std::rotate(order.begin(), order.begin() + first, order.begin() + first + 1);
+      for (int i : order) {
+        if (map->submap(i).source != SubmapSource::kFront || map->Connected(i, j)) continue;
         if (std::find(tried.begin(), tried.end(), std::make_pair(i, j)) != tried.end()) continue;
         if (cancel && cancel->load()) break;
         tried.emplace_back(i, j);
@@ -162,6 +185,7 @@ std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& opt
         reports.push_back(merge_memo ? merge_memo->Place(map, i, j, options) : PlaceMergePair(map, i, j, options));
         if (reports.back().merged) {
           progress = true;
+          if (memo) memo->SetPartner(map->Key(i), map->Key(j));
         } else if (memo) {
           memo->AddRejected(map->submap(i), map->submap(j));
         }

@@ -10,6 +10,7 @@
 // welding BA). Strict thresholds: a wrong place merge would bend the map,
 // a missed one only leaves two components.
 #include <atomic>
+#include <map>
 #include <set>
 #include <tuple>
 #include <vector>
@@ -37,13 +38,23 @@ MergeReport PlaceMergePair(GlobalMap* map, int a, int b, const ManagerOptions& o
 // and a finished front submap never changes, so with the memo only pairs
 // that involve a grown submap are matched again (O(n) per rebuild, not
 // O(n^2)). A rejection depends only on the two submaps and the options.
+// It also remembers which submap each one last merged with: a front submap
+// resent while it grows is tried first against that one, which it almost
+// always joins again, instead of against every earlier front in index order
+// (in a looped walk that was tens of full matchings per rebuild).
 class PlaceMergeMemo {
  public:
   bool Rejected(const Submap& a, const Submap& b) const { return rejected_.count(Key(a, b)) > 0; }
   void AddRejected(const Submap& a, const Submap& b) { rejected_.insert(Key(a, b)); }
   size_t size() const { return rejected_.size(); }
+  void SetPartner(const SubmapKey& a, const SubmapKey& b) { partner_[a] = b, partner_[b] = a; }
+  const SubmapKey* Partner(const SubmapKey& a) const {
+    const auto it = partner_.find(a);
+    return it == partner_.end() ? nullptr : &it->second;
+  }
 
  private:
+  std::map<SubmapKey, SubmapKey> partner_;
   using SubmapVersion = std::tuple<int, int64_t, size_t, size_t>;  // source, id, keyframes, points
   static SubmapVersion Version(const Submap& s) {
     return {int(s.source), s.id, s.keyframes.size(), s.points.size()};
@@ -55,8 +66,10 @@ class PlaceMergeMemo {
 };
 
 // Tries every pair of front submaps in different components, repeating until
-// no merge succeeds. No-op when options.place_merge is off. With a memo,
-// pairs it holds are skipped and new rejections are added to it. With a
+// no merge succeeds; for each submap, the earlier ones in index order, its
+// last partner (memo) first. No-op when options.place_merge is off. With a
+// memo, pairs it holds are skipped and new rejections and partners are
+// added to it. With a
 // merge memo, attempts on unchanged submaps are replayed (merge_memo.h).
 // *cancel: as MergeAll's.
 std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& options,

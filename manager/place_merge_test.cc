@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <set>
 
 #include "manager/synthetic_submaps.h"
 
@@ -136,6 +137,47 @@ TEST(PlaceMerge, OffOrUnrelatedDescriptorsDoNothing) {
   ASSERT_EQ(reports.size(), 1u);
   EXPECT_FALSE(reports[0].merged);
   EXPECT_NE(reports[0].reason.find("too few descriptor matches"), std::string::npos) << reports[0].reason;
+}
+
+// Fronts 1 and 2 see one part of the scene, 2 and 3 another, 1 and 3 share
+// nothing. Front 3 is resent while it grows: each version is tried against
+// front 2, which it joined last time, first; front 1 is then in the same
+// component and costs no matching (in index order it was matched first,
+// and rejected, at every resend).
+TEST(PlaceMerge, AGrowingFrontIsTriedFirstAgainstItsLastPartner) {
+  SyntheticSceneOptions so;
+  so.num_points = 1500;
+  so.seed = 11;
+  const SyntheticScene scene = MakeSyntheticScene(so);
+  std::vector<SyntheticSubmap> f;
+  const int range[3][2] = {{0, 30}, {0, 100}, {70, 100}};
+  for (int k = 0; k < 3; ++k) {
+    f.push_back(MakeSyntheticFront(scene, k + 1, range[k][0], range[k][1], RandomSim3(50 + k), 60 + k));
+    AttachPointDescriptors(&f.back(), scene.points.size(), 100, 20, 70 + k);
+  }
+  // What fronts 1 and 3 both see looks different in front 1 (descriptor bits
+  // inverted): only front 2 matches both.
+  const std::set<int> seen_by_3(f[2].scene_point.begin(), f[2].scene_point.end());
+  for (size_t i = 0; i < f[0].submap.points.size(); ++i)
+    if (seen_by_3.count(f[0].scene_point[i])) cv::bitwise_not(f[0].submap.points[i].descriptor, f[0].submap.points[i].descriptor);
+  ASSERT_LT(MatchMapPoints(f[0].submap, f[2].submap, 50, 0.8).size(), 40u) << "fronts 1 and 3 must not match";
+  const Submap grown = f[2].submap;
+  f[2].submap = SubmapUntil(grown, grown.keyframes[grown.keyframes.size() - 3].timestamp);
+  const auto run = [&](PlaceMergeMemo* memo) {
+    GlobalMap map;
+    for (const SyntheticSubmap& s : f) map.AddSubmap(s.submap);
+    const auto reports = PlaceMergeAll(&map, ManagerOptions(), memo);
+    EXPECT_EQ(map.ComponentsBySize().size(), 1u);
+    std::vector<std::string> pairs;
+    for (const MergeReport& r : reports) pairs.push_back(ToString(r.front) + "+" + ToString(r.back));
+    return pairs;
+  };
+  PlaceMergeMemo memo;
+  EXPECT_EQ(run(&memo), (std::vector<std::string>{"front#1+front#2", "front#1+front#3", "front#2+front#3"}));
+  f[2].submap = grown;  // resent, two keyframes more
+  // 1+2 is computed again (this memo keeps rejections), 1+3 is not tried.
+  EXPECT_EQ(run(&memo), (std::vector<std::string>{"front#1+front#2", "front#2+front#3"}));
+  EXPECT_EQ(run(nullptr), (std::vector<std::string>{"front#1+front#2", "front#1+front#3", "front#2+front#3"}));
 }
 
 }  // namespace

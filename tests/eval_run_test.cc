@@ -243,8 +243,11 @@ TEST_F(EvalRunFindings, AFailedBackWindowIsAWarningAndTheBackIsShownAtWork) {
   const std::string log = Slurp(dir_ / "dark.log");
   const nlohmann::json m = nlohmann::json::parse(Slurp(out / "run_1" / "metrics.json"));
   ASSERT_GE(m["back_windows"].get<int>(), 1) << "the front did not lose track: the test proves nothing\n" << log;
-  ASSERT_FALSE(m["warnings"].empty());
-  EXPECT_NE(m["warnings"][0].get<std::string>().find("back window(s) failed"), std::string::npos) << m["warnings"];
+  // Other warnings may come first (under load the front can miss its one
+  // short tracked stretch of this dark sequence): look at every warning.
+  bool warned = false;
+  for (const auto& w : m["warnings"]) warned |= w.get<std::string>().find("back window(s) failed") != std::string::npos;
+  EXPECT_TRUE(warned) << m["warnings"];
   EXPECT_NE(log.find("WARNING run 1:"), std::string::npos) << log;
   EXPECT_NE(log.find("back: window 1 of 1"), std::string::npos) << log;
   EXPECT_NE(log.find("feature_extractor"), std::string::npos) << log;
