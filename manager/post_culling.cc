@@ -16,30 +16,44 @@ namespace {
 
 struct Observer {
   int submap;
-  int64_t keyframe_id;
+  int keyframe;  // index in the submap
   uint8_t octave;
 };
 
-// Union-find over (submap, point id) to merge fused duplicates into clusters.
+// Map points of every submap as dense cluster ids (offset of the submap +
+// point index), with union-find to merge fused duplicates. Flat arrays, not
+// maps keyed by (submap, point id): culling runs over the whole map at every
+// rebuild, and a long session holds ~10^6 points.
 class PointClusters {
  public:
-  int Id(int submap, int64_t pid) {
-    const auto key = std::make_pair(submap, pid);
-    const auto it = ids_.find(key);
-    if (it != ids_.end()) return Root(it->second);
-    parent_.push_back(int(parent_.size()));
-    ids_[key] = parent_.back();
-    return parent_.back();
+  explicit PointClusters(const std::vector<SubmapIndex>& idx, const GlobalMap& map) : idx_(idx) {
+    for (size_t s = 0; s < map.size(); ++s) {
+      offset_.push_back(int(parent_.size()));
+      parent_.resize(parent_.size() + map.submap(int(s)).points.size());
+    }
+    for (size_t i = 0; i < parent_.size(); ++i) parent_[i] = int(i);
   }
-  void Join(int a, int b) { parent_[Root(a)] = Root(b); }
+  // A point id the submap does not hold gets an id of its own (it joins
+  // nothing and nobody else observes it).
+  int Id(int submap, int64_t pid) {
+    const int p = idx_[size_t(submap)].Point(pid);
+    if (p >= 0) return offset_[size_t(submap)] + p;
+    const auto [it, inserted] = absent_.try_emplace({submap, pid}, int(parent_.size()));
+    if (inserted) parent_.push_back(it->second);
+    return it->second;
+  }
+  int IdOfIndex(int submap, int point_index) const { return offset_[size_t(submap)] + point_index; }
+  void Join(int a, int b) { parent_[size_t(Root(a))] = Root(b); }
   int Root(int i) {
-    while (parent_[i] != i) i = parent_[i] = parent_[parent_[i]];
+    while (parent_[size_t(i)] != i) i = parent_[size_t(i)] = parent_[size_t(parent_[size_t(i)])];
     return i;
   }
+  size_t size() const { return parent_.size(); }
 
  private:
-  std::map<std::pair<int, int64_t>, int> ids_;
-  std::vector<int> parent_;
+  const std::vector<SubmapIndex>& idx_;
+  std::vector<int> offset_, parent_;
+  std::map<std::pair<int, int64_t>, int> absent_;
 };
 
 }  // namespace
@@ -47,88 +61,110 @@ class PointClusters {
 CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& options) {
   CullingReport rep;
   const int n = int(map->size());
-  PointClusters clusters;
-  for (const FusedPoint& f : map->fused()) clusters.Join(clusters.Id(f.dup, f.dup_point), clusters.Id(f.kept, f.kept_point));
   std::vector<SubmapIndex> idx(n);
-  std::unordered_map<int, std::vector<Observer>> observers;  // cluster -> observers
-  for (int s = 0; s < n; ++s) {
-    const Submap& m = map->submap(s);
-    idx[s].Build(m);
-    rep.keyframes_before += int(m.keyframes.size());
-    rep.points_before += int(m.points.size());
-    for (const MapPoint& p : m.points) {
-      const int c = clusters.Id(s, p.id);
-      for (const auto& ob : p.observations) {
-        const int k = idx[s].Keyframe(ob.keyframe_id);
-        if (k < 0) continue;
-        const Keyframe& kf = m.keyframes[k];
-        const uint8_t oct = ob.keypoint_index >= 0 && ob.keypoint_index < int(kf.octaves.size())
-                                ? kf.octaves[ob.keypoint_index]
-                                : 0;
-        observers[c].push_back({s, ob.keyframe_id, oct});
-      }
-    }
-  }
+  for (int s = 0; s < n; ++s) idx[s].Build(map->submap(s));
+  PointClusters clusters(idx, *map);
+  for (const FusedPoint& f : map->fused()) clusters.Join(clusters.Id(f.dup, f.dup_point), clusters.Id(f.kept, f.kept_point));
   // Front points found in back keyframes: more observers of those points, and
   // more points of those keyframes.
-  std::map<std::pair<int, int64_t>, std::vector<std::pair<int, uint8_t>>> extra;  // keyframe -> (cluster, octave)
   const auto search_start = std::chrono::steady_clock::now();
   const std::vector<CrossObservation> cross = SearchFrontPoints(*map, options);
   rep.seconds_front_search = SecondsSince(search_start);
   rep.front_points_found = int(cross.size());
-  for (const CrossObservation& x : cross) {
-    const int c = clusters.Id(x.front, x.point_id);
-    observers[c].push_back({x.back, x.keyframe_id, x.octave});
-    extra[{x.back, x.keyframe_id}].push_back({c, x.octave});
+  std::vector<int> cross_cluster(cross.size());
+  for (size_t i = 0; i < cross.size(); ++i) cross_cluster[i] = clusters.Id(cross[i].front, cross[i].point_id);
+
+  // Observers per cluster root, flat (counted, then filled).
+  const auto for_each_observation = [&](const auto& visit) {
+    for (int s = 0; s < n; ++s) {
+      const Submap& m = map->submap(s);
+      for (size_t p = 0; p < m.points.size(); ++p)
+        for (const auto& ob : m.points[p].observations) {
+          const int k = idx[s].Keyframe(ob.keyframe_id);
+          if (k < 0) continue;
+          const Keyframe& kf = m.keyframes[size_t(k)];
+          const uint8_t oct = ob.keypoint_index >= 0 && ob.keypoint_index < int(kf.octaves.size())
+                                  ? kf.octaves[size_t(ob.keypoint_index)]
+                                  : 0;
+          visit(clusters.IdOfIndex(s, int(p)), Observer{s, k, oct});
+        }
+    }
+    for (size_t i = 0; i < cross.size(); ++i) {
+      const int k = idx[cross[i].back].Keyframe(cross[i].keyframe_id);
+      if (k >= 0) visit(cross_cluster[i], Observer{cross[i].back, k, cross[i].octave});
+    }
+  };
+  std::vector<int> begin(clusters.size() + 1, 0);
+  for_each_observation([&](int c, const Observer&) { ++begin[size_t(clusters.Root(c)) + 1]; });
+  for (size_t c = 0; c < clusters.size(); ++c) begin[c + 1] += begin[c];
+  std::vector<Observer> observers(size_t(begin.back()));
+  {
+    std::vector<int> fill(begin.begin(), begin.end() - 1);
+    for_each_observation([&](int c, const Observer& o) { observers[size_t(fill[size_t(clusters.Root(c))]++)] = o; });
   }
-  // Clusters are final now; resolve observer lists under their roots.
-  std::unordered_map<int, std::vector<Observer>> by_root;
-  for (auto& [c, obs] : observers) {
-    auto& dst = by_root[clusters.Root(c)];
-    dst.insert(dst.end(), obs.begin(), obs.end());
+  for (int s = 0; s < n; ++s) {
+    rep.keyframes_before += int(map->submap(s).keyframes.size());
+    rep.points_before += int(map->submap(s).points.size());
   }
-  std::vector<std::unordered_set<int64_t>> culled(n);
+  // A back keyframe's found front points: (cluster, octave) per keyframe.
+  std::unordered_map<int64_t, std::vector<std::pair<int, uint8_t>>> extra;
+  for (size_t i = 0; i < cross.size(); ++i) {
+    const int k = idx[cross[i].back].Keyframe(cross[i].keyframe_id);
+    if (k >= 0) extra[(int64_t(cross[i].back) << 32) | k].push_back({cross_cluster[i], cross[i].octave});
+  }
+  std::vector<std::vector<char>> culled(n);
   std::vector<int> alive(n);
-  for (int s = 0; s < n; ++s) alive[s] = int(map->submap(s).keyframes.size());
-  auto is_culled = [&](int s, int64_t kf) { return culled[s].count(kf) > 0; };
+  for (int s = 0; s < n; ++s) {
+    alive[s] = int(map->submap(s).keyframes.size());
+    culled[s].assign(map->submap(s).keyframes.size(), 0);
+  }
 
   std::vector<double> back_shares;
+  std::vector<int> listed_by(clusters.size(), -1);  // the keyframe that last listed a cluster
+  int keyframe_stamp = 0;
+  const int min_observers = options.culling_min_observers;
+  std::vector<std::pair<int, int>> seen;  // distinct other keyframes (submap, index)
   for (const bool back_pass : {true, false}) {
     for (int s = 0; s < n; ++s) {
-      Submap& m = map->submap(s);
+      const Submap& m = map->submap(s);
       if ((m.source == SubmapSource::kBack) != back_pass) continue;
-      for (const Keyframe& kf : m.keyframes) {
+      for (size_t k = 0; k < m.keyframes.size(); ++k) {
+        const Keyframe& kf = m.keyframes[k];
         if (alive[s] <= 1) break;  // a submap keeps at least one keyframe
+        ++keyframe_stamp;
         // The keyframe's points as (cluster root, octave), each cluster once.
         std::vector<std::pair<int, uint8_t>> points;
-        std::unordered_set<int> listed;
+        const auto list = [&](int root, uint8_t oct) {
+          if (listed_by[size_t(root)] == keyframe_stamp) return;
+          listed_by[size_t(root)] = keyframe_stamp;
+          points.push_back({root, oct});
+        };
         for (size_t i = 0; i < kf.point_ids.size(); ++i) {
-          if (kf.point_ids[i] < 0 || idx[s].Point(kf.point_ids[i]) < 0) continue;
-          const int root = clusters.Root(clusters.Id(s, kf.point_ids[i]));
-          if (listed.insert(root).second) points.push_back({root, i < kf.octaves.size() ? kf.octaves[i] : 0});
+          if (kf.point_ids[i] < 0) continue;
+          const int p = idx[s].Point(kf.point_ids[i]);
+          if (p < 0) continue;
+          list(clusters.Root(clusters.IdOfIndex(s, p)), i < kf.octaves.size() ? kf.octaves[i] : 0);
         }
-        const auto ex = extra.find({s, kf.id});
+        const auto ex = extra.find((int64_t(s) << 32) | int64_t(k));
         if (ex != extra.end())
-          for (const auto& [c, oct] : ex->second)
-            if (listed.insert(clusters.Root(c)).second) points.push_back({clusters.Root(c), oct});
+          for (const auto& [c, oct] : ex->second) list(clusters.Root(c), oct);
         int with_point = 0, redundant = 0;
         for (const auto& [root, oct] : points) {
           ++with_point;
-          const auto it = by_root.find(root);
-          if (it == by_root.end()) continue;
-          std::unordered_set<int64_t> seen;  // distinct other keyframes
-          for (const Observer& o : it->second) {
-            if ((o.submap == s && o.keyframe_id == kf.id) || o.octave > oct + options.culling_octave_tolerance ||
-                is_culled(o.submap, o.keyframe_id))
+          seen.clear();
+          for (int o = begin[size_t(root)]; o < begin[size_t(root) + 1] && int(seen.size()) < min_observers; ++o) {
+            const Observer& ob = observers[size_t(o)];
+            if ((ob.submap == s && ob.keyframe == int(k)) || ob.octave > oct + options.culling_octave_tolerance ||
+                culled[size_t(ob.submap)][size_t(ob.keyframe)])
               continue;
-            seen.insert((int64_t(o.submap) << 40) ^ o.keyframe_id);
-            if (int(seen.size()) >= options.culling_min_observers) break;
+            const std::pair<int, int> key{ob.submap, ob.keyframe};
+            if (std::find(seen.begin(), seen.end(), key) == seen.end()) seen.push_back(key);
           }
-          if (int(seen.size()) >= options.culling_min_observers) ++redundant;
+          if (int(seen.size()) >= min_observers) ++redundant;
         }
         if (back_pass && with_point > 0) back_shares.push_back(double(redundant) / with_point);
         if (with_point > 0 && redundant >= options.culling_redundant_ratio * with_point) {
-          culled[s].insert(kf.id);
+          culled[s][k] = 1;
           --alive[s];
           (back_pass ? rep.culled_back : rep.culled_front) += 1;
         }
@@ -145,12 +181,15 @@ CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& optio
   // the points that only they supported.
   for (int s = 0; s < n; ++s) {
     Submap& m = map->submap(s);
-    if (!culled[s].empty()) {
+    if (std::count(culled[s].begin(), culled[s].end(), 1) > 0) {
       std::unordered_map<Timestamp, size_t> recorded;
       for (size_t i = 0; i < m.frames.size(); ++i) recorded[m.frames[i].timestamp] = i;
       std::vector<Keyframe> kept;
+      std::unordered_set<int64_t> culled_ids;
+      for (size_t k = 0; k < m.keyframes.size(); ++k)
+        if (culled[s][k]) culled_ids.insert(m.keyframes[k].id);
       for (Keyframe& kf : m.keyframes) {
-        if (!culled[s].count(kf.id)) {
+        if (!culled_ids.count(kf.id)) {
           kept.push_back(std::move(kf));
           continue;
         }
@@ -174,7 +213,7 @@ CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& optio
       std::vector<MapPoint> points;
       for (MapPoint& p : m.points) {
         p.observations.erase(std::remove_if(p.observations.begin(), p.observations.end(),
-                                            [&](const MapPoint::Observation& o) { return culled[s].count(o.keyframe_id) > 0; }),
+                                            [&](const MapPoint::Observation& o) { return culled_ids.count(o.keyframe_id) > 0; }),
                              p.observations.end());
         if (!p.observations.empty()) points.push_back(std::move(p));
       }

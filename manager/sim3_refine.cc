@@ -29,6 +29,9 @@ struct Sim3ReprojectionCost {
   bool operator()(const T* log_s, const T* q_xyzw, const T* t, T* res) const {
     const Eigen::Map<const Eigen::Quaternion<T>> q(q_xyzw);
     const Eigen::Map<const Eigen::Matrix<T, 3, 1>> tr(t);
+    // A trial step far out (scale e^-854 was seen on a poorly constrained
+    // pair) is an invalid point for the solver, not a NaN residual.
+    if (!(ceres::abs(log_s[0]) < T(30))) return false;
     const T s = ceres::exp(log_s[0]);
     Eigen::Matrix<T, 3, 1> X;
     if (o_.forward) {
