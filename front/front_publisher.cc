@@ -1,5 +1,7 @@
 #include "front/front_publisher.h"
 
+#include <malloc.h>
+
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
@@ -69,6 +71,8 @@ const OptionSpec<FrontPublisherOptions>& FrontPublisherOptions::Spec() {
               "windows + resends waiting for the publisher thread (full: dropped and counted)");
     s->Number("flush_interval_s", &O::flush_interval_s, Above(0.0), AtMost(60.0),
               "file flush / retry / status period of the publisher thread");
+    s->Number("heap_trim_interval_s", &O::heap_trim_interval_s, AtLeast(0.0), AtMost(86400.0),
+              "hand freed heap back to the system this often (publisher thread); 0: never");
     return s;
   }();
   return *spec;
@@ -301,6 +305,18 @@ void FrontPublisher::WriteLines(std::vector<FrameLine>* frames, std::vector<Samp
   samples->clear();
 }
 
+void FrontPublisher::TrimHeap() {
+  if (o_.heap_trim_interval_s <= 0) return;
+  const int64_t now = SteadyNs();
+  if (last_trim_ns_ == 0) last_trim_ns_ = now;
+  if (now - last_trim_ns_ < static_cast<int64_t>(o_.heap_trim_interval_s * 1e9)) return;
+  ::malloc_trim(0);
+  last_trim_ns_ = SteadyNs();
+  std::lock_guard<std::mutex> l(mutex_);
+  ++p_stats_.heap_trims;
+  p_stats_.heap_trim_ms_max = std::max(p_stats_.heap_trim_ms_max, MsBetween(now, last_trim_ns_));
+}
+
 void FrontPublisher::RetryFinished() {
   while (!unsent_finished_.empty()) {
     const PushStatus st = submaps_->Send(*unsent_finished_.front());
@@ -399,6 +415,7 @@ void FrontPublisher::Loop() {
     }
     WriteLines(&frames, &samples);
     Report();
+    TrimHeap();
     if (quit) break;
     if (have_job) {
       Process(job);
@@ -453,6 +470,8 @@ bool FrontPublisher::WriteFinalFiles(const std::vector<Submap>& finished) {
   j["publisher_us_median"] = st.on_frame_us_median;
   j["publisher_us_p99"] = st.on_frame_us_p99;
   j["publisher_us_max"] = st.on_frame_us_max;
+  j["heap_trims"] = st.heap_trims;
+  j["heap_trim_ms_max"] = st.heap_trim_ms_max;
   {
     std::lock_guard<std::mutex> l(source_mutex_);
     if (source_detail_) {

@@ -333,6 +333,7 @@ TEST(FrontPublisher, AbsentConsumersNeverBlock) {
   po.resend_interval_s = 1.0;
   po.wait_for_consumers_s = 0.3;
   po.flush_interval_s = 0.02;
+  po.heap_trim_interval_s = 1e-6;  // every pass of the publisher thread but its first
   FrontPublisher pub(po, ipc, so, Camera());
   const std::function<Submap()> snap = [&] { return ff.Snapshot(); };
   for (int i = 0; i < static_cast<int>(ff.records.size()); ++i) {
@@ -342,6 +343,7 @@ TEST(FrontPublisher, AbsentConsumersNeverBlock) {
   ff.Finish();
   EXPECT_TRUE(pub.Finish(ff.finished));
   const FrontPublisherStats st = pub.stats();
+  EXPECT_GE(st.heap_trims, 1u);  // one pass per window job at least
   EXPECT_EQ(st.frames, ff.records.size());
   EXPECT_EQ(st.submaps_finished, 7u);
   EXPECT_GE(st.windows, 5u);
@@ -363,6 +365,7 @@ TEST(FrontPublisher, ConsumerThatLeftIsNotAwaited) {
   po.resend_interval_s = 0;  // no resends
   po.wait_for_consumers_s = 30;
   po.flush_interval_s = 0.02;
+  po.heap_trim_interval_s = 0;  // never
   FrontPublisher pub(po, ipc, SamplerOptions{}, Camera());
   {
     WindowReceiver w(ipc);
@@ -382,6 +385,7 @@ TEST(FrontPublisher, ConsumerThatLeftIsNotAwaited) {
   // Behaviour, not speed: the 30 s bound would be hit if it waited for them.
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 15.0);
   EXPECT_EQ(pub.stats().submaps_finished, 1u);
+  EXPECT_EQ(pub.stats().heap_trims, 0u);
 }
 
 TEST(FrontPublisher, LargestSubmapAndOptions) {

@@ -137,7 +137,7 @@ bool ReconstructTwoView(const std::vector<Eigen::Vector2d>& p1, const std::vecto
     const Eigen::Matrix3d Kinv = K.inverse();
     sf = ScoreFundamental(Kinv.transpose() * E * Kinv, p1, p2, o.sigma, &inl_f);
   }
-  if (sh + sf <= 0) return false;
+  if (sh + sf <= 0) { r->rejected = "no model"; return false; }
   const double rh = sh / (sh + sf);
   r->score_ratio = rh;
   std::vector<Hypothesis> hyps;
@@ -187,11 +187,13 @@ bool ReconstructTwoView(const std::vector<Eigen::Vector2d>& p1, const std::vecto
       second_n = n;
     }
   }
-  if (best < 0) return false;
+  if (best < 0) { r->rejected = "no hypothesis"; return false; }
   const int min_good = std::max(o.min_triangulated, static_cast<int>(0.6 * num_inl));
-  if (best_n < min_good) return false;
-  if (second_n > 0.75 * best_n) return false;  // ambiguous motion
-  if (best_par < o.min_parallax_deg) return false;
+  r->parallax_deg = best_par;
+  r->num_triangulated = best_n;
+  if (best_n < min_good) { r->rejected = "few good points"; return false; }
+  if (second_n > 0.75 * best_n) { r->rejected = "ambiguous motion"; return false; }
+  if (best_par < o.min_parallax_deg) { r->rejected = "low parallax"; return false; }
   r->T_21 = Se3(hyps[best].R, hyps[best].t);
   r->points = std::move(best_pts);
   r->triangulated = std::move(best_good);

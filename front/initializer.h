@@ -27,6 +27,7 @@ struct TwoViewResult {
   double score_ratio = 0;              // RH = SH / (SH + SF)
   double parallax_deg = 0;
   int num_triangulated = 0;
+  const char* rejected = "";          // why ReconstructTwoView said no (empty: accepted)
 };
 
 // p1, p2: matched undistorted pixel coordinates. K: 3x3 intrinsics.

@@ -41,7 +41,12 @@ bool MapInitializer::Match(const TrackFrame& cur, bool reinit, const PinholeCame
   tvo.min_parallax_deg = reinit ? o_.reinit_min_parallax_deg : o_.init_min_parallax_deg;
   // The pinhole K: keypoints are undistorted already.
   two_view_ = TwoViewResult();  // nothing of an earlier attempt survives
-  return ReconstructTwoView(p1, p2, PinholeMatrix(cam), tvo, &two_view_);
+  const bool ok = ReconstructTwoView(p1, p2, PinholeMatrix(cam), tvo, &two_view_);
+  if (!ok)
+    spdlog::debug("front: two-view frames {}-{} rejected: {} ({} matches, {} {} good, parallax {:.2f} deg, RH {:.2f})",
+                  ref_frame_, cur.id, two_view_.rejected, n, two_view_.model, two_view_.num_triangulated,
+                  two_view_.parallax_deg, two_view_.score_ratio);
+  return ok;
 }
 
 bool MapInitializer::Build(const TrackFrame& cur, bool reinit, Map* map, const PinholeCamera& cam,

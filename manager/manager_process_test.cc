@@ -171,6 +171,9 @@ int FullDiskScenario() {
   if (!LoadGlobalMap(map.string(), &loaded, &why) || loaded.size() != 3) return 8;
   ::kill(pid, SIGTERM);
   if (WaitExit(pid, 20) != kExitStopped) return 9;
+  // A daemon manager leaves its channels for the next run; the test's are its own.
+  for (const char* channel : {kFrontSubmapChannel, kBackSubmapChannel, kMapNoticeChannel})
+    RemoveSegment(SegmentName(ipc.instance, channel));
   return 0;
 }
 
@@ -195,8 +198,8 @@ class ManagerProcess : public ::testing::Test {
         ::waitpid(p, &status, 0);
       }
     }
-    RemoveSegment(SegmentName(instance_, kFrontSubmapChannel));
-    RemoveSegment(SegmentName(instance_, kBackSubmapChannel));
+    for (const char* channel : {kFrontSubmapChannel, kBackSubmapChannel, kMapNoticeChannel})
+      RemoveSegment(SegmentName(instance_, channel));
     if (!HasFailure() && !std::getenv("RUMI_KEEP_TEST_DIR")) fs::remove_all(dir_);
   }
   std::vector<std::string> Args(const std::string& extra_wait = "15") const {

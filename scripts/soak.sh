@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Soak benchmark (not a test): rumid on a looped generated sequence with a
 # loss in every loop, for MINUTES (default 35), sampled every 30 s with
-# `rumi status --csv`: RSS and open fds of rumid and each child, restarts,
+# `rumi status --csv`: RSS (and its private and shared-ring parts) and open
+# fds of rumid and each child, restarts,
 # submaps, merges, rebuild time, back windows. Prints the samples, then per
 # process RSS and fds after warm-up (first sample after 5 min) against the
 # end, the largest rebuild time, merges / windows per hour, and the median
@@ -92,10 +93,12 @@ awk -F, '
     if (w == 0) w = 2
     split(rows[w], a, ","); split(rows[n], z, ",")
     hours = (z[col["uptime_s"]] - a[col["uptime_s"]]) / 3600
-    printf "%-14s %12s %12s %10s %10s\n", "process", "RSS warm MiB", "RSS end MiB", "fds warm", "fds end"
+    printf "%-14s %12s %12s %14s %14s %10s %10s\n", "process", "RSS warm MiB", "RSS end MiB", "private warm", "private end", "fds warm", "fds end"
     split("rumid front back manager", p, " ")
     for (k = 1; k <= 4; ++k) {
-      printf "%-14s %12s %12s %10s %10s\n", p[k], a[col[p[k] "_rss_mib"]], z[col[p[k] "_rss_mib"]], a[col[p[k] "_fds"]], z[col[p[k] "_fds"]]
+      pw = (p[k] "_private_mib" in col) ? a[col[p[k] "_private_mib"]] : "-"
+      pz = (p[k] "_private_mib" in col) ? z[col[p[k] "_private_mib"]] : "-"
+      printf "%-14s %12s %12s %14s %14s %10s %10s\n", p[k], a[col[p[k] "_rss_mib"]], z[col[p[k] "_rss_mib"]], pw, pz, a[col[p[k] "_fds"]], z[col[p[k] "_fds"]]
     }
     max_rebuild = 0
     for (r = 2; r <= n; ++r) { split(rows[r], f, ","); if (f[col["last_rebuild_s"]] + 0 > max_rebuild) max_rebuild = f[col["last_rebuild_s"]] + 0 }
@@ -112,9 +115,13 @@ python3 - "$csv" <<'PY' || true
 import csv, statistics, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 procs = ["front", "back", "manager"]
-print("window_s\t" + "\t".join(f"{p}_rss_mib" for p in procs) + "\t(median per 2-minute window)")
+# RSS, then its private part (heap, stacks) and the touched pages of the
+# shared rings (bounded by the rings' sizes), per process.
+cols = [f"{p}_{k}_mib" for p in procs for k in ("rss", "private", "shared") if f"{p}_{k}_mib" in (rows[0] if rows else {})]
+print("window_s\t" + "\t".join(cols) + "\t(median per 2-minute window)")
 for a in range(0, int(float(rows[-1]["uptime_s"])) + 1, 120) if rows else []:
     w = [r for r in rows if a <= float(r["uptime_s"]) < a + 120]
     if w:
-        print(f"{a}-{a + 120}\t" + "\t".join(f"{statistics.median(float(r[p + '_rss_mib']) for r in w):.0f}" for p in procs))
+        print(f"{a}-{a + 120}\t" + "\t".join(
+            f"{statistics.median(float(r[c]) for r in w if r[c]):.0f}" if any(r[c] for r in w) else "-" for c in cols))
 PY

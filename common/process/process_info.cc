@@ -59,11 +59,15 @@ bool ProcessAlive(const ProcessId& id) {
   return !(p && p[1] == ' ' && (p[2] == 'Z' || p[2] == 'X'));
 }
 
-double ResidentMiB(pid_t pid) {
+ResidentMemory ResidentMemoryOf(pid_t pid) {
+  ResidentMemory m;
   std::ifstream in("/proc/" + (pid > 0 ? std::to_string(pid) : std::string("self")) + "/status");
+  const std::pair<const char*, double*> fields[] = {
+      {"VmRSS:", &m.total_mib}, {"RssAnon:", &m.private_mib}, {"RssShmem:", &m.shared_mib}};
   for (std::string line; std::getline(in, line);)
-    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;  // kB
-  return -1;
+    for (const auto& [key, value] : fields)
+      if (line.rfind(key, 0) == 0) *value = std::stod(line.substr(std::strlen(key))) / 1024.0;  // kB
+  return m;
 }
 
 }  // namespace rumi

@@ -21,8 +21,17 @@ inline bool ProcessRunning(pid_t pid) {
   return pid > 0 && ProcessAlive({static_cast<uint64_t>(pid), ProcessStartTicks(pid)});
 }
 
-// Resident memory of a process (VmRSS), MiB (0: this process); -1 when
-// unknown (no such process).
-double ResidentMiB(pid_t pid = 0);
+// Resident memory of a process, MiB (pid 0: this process); -1 when unknown
+// (no such process). The total (VmRSS) also counts the pages of shared
+// segments the process has touched (a ring fills its pages as its write
+// position first goes round, up to the ring's size) and of mapped libraries;
+// the private part (RssAnon: heap, stacks) is what the process itself grows.
+struct ResidentMemory {
+  double total_mib = -1;    // VmRSS
+  double private_mib = -1;  // RssAnon
+  double shared_mib = -1;   // RssShmem: shared-memory segments (the ipc rings)
+};
+ResidentMemory ResidentMemoryOf(pid_t pid = 0);
+inline double ResidentMiB(pid_t pid = 0) { return ResidentMemoryOf(pid).total_mib; }
 
 }  // namespace rumi

@@ -57,15 +57,18 @@ void SetIdBase(const StateDirLayout& layout, std::vector<std::string>* argv) {
     if ((*argv)[i] == "--first-submap-id") (*argv)[i + 1] = std::to_string(g * kIdsPerGeneration);
 }
 
-// Resident memory (MiB) and open file descriptors of a process; -1 unknown.
+// Resident memory (MiB: all, private, shared segments) and open file
+// descriptors of a process; -1 unknown.
 void AddResources(pid_t pid, nlohmann::json* j) {
-  const double rss = ResidentMiB(pid);
+  const ResidentMemory mem = ResidentMemoryOf(pid);
   int fds = 0;
   std::error_code ec;
   for (auto it = fs::directory_iterator("/proc/" + std::to_string(pid) + "/fd", ec); !ec && it != fs::directory_iterator();
        it.increment(ec))
     ++fds;
-  (*j)["rss_mib"] = rss;
+  (*j)["rss_mib"] = mem.total_mib;
+  (*j)["private_mib"] = mem.private_mib;
+  (*j)["shared_mib"] = mem.shared_mib;
   (*j)["fds"] = ec ? -1 : fds;
 }
 

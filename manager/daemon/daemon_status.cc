@@ -83,9 +83,16 @@ std::string FormatDaemonStatus(const nlohmann::json& st, bool alive) {
   }
   o << "  last save  " << Get(m, "last_save") << "\n";
   const nlohmann::json& self = st.value("rumid", nlohmann::json::object());
-  o << "  memory     rumid " << Get(self, "rss_mib") << " MiB";
+  auto mib = [](const nlohmann::json& j, const char* key) {  // whole MiB
+    if (!j.is_object() || !j.contains(key) || !j[key].is_number()) return std::string("-");
+    char buf[32];
+    std::snprintf(buf, sizeof(buf), "%.0f", j[key].get<double>());
+    return std::string(buf);
+  };
+  o << "  memory     rumid " << mib(self, "rss_mib") << " MiB";
   for (const auto& c : st.value("children", nlohmann::json::array()))
-    o << ", " << Get(c, "name") << " " << Get(c, "rss_mib") << " MiB (" << Get(c, "fds") << " fds)";
+    o << ", " << Get(c, "name") << " " << mib(c, "rss_mib") << " MiB (" << mib(c, "private_mib") << " private, "
+      << Get(c, "fds") << " fds)";
   o << "\n";
   return o.str();
 }
@@ -100,11 +107,14 @@ std::string DaemonStatusCsv(const nlohmann::json& st, bool header) {
   const nlohmann::json& r = st.value("rumid", nlohmann::json::object());
   col("rumid_rss_mib", Get(r, "rss_mib", ""));
   col("rumid_fds", Get(r, "fds", ""));
-  for (const char* name : {"rumi-front", "rumi-back", "rumi-manager"}) {
-    nlohmann::json c = nlohmann::json::object();
+  auto child = [&](const std::string& name) {
     for (const auto& x : st.value("children", nlohmann::json::array()))
-      if (x.value("name", std::string()) == name) c = x;
-    const std::string p = std::string(name).substr(5);  // front, back, manager
+      if (x.value("name", std::string()) == name) return x;
+    return nlohmann::json(nlohmann::json::object());
+  };
+  const char* const kChildren[] = {"front", "back", "manager"};
+  for (const std::string p : kChildren) {
+    const nlohmann::json c = child("rumi-" + p);
     col(p + "_rss_mib", Get(c, "rss_mib", ""));
     col(p + "_fds", Get(c, "fds", ""));
     col(p + "_restarts", Get(c, "restarts", ""));
@@ -124,6 +134,13 @@ std::string DaemonStatusCsv(const nlohmann::json& st, bool header) {
   col("windows_failed", Get(b, "failed", ""));
   col("windows_dropped", Get(b, "dropped", ""));
   col("windows_joined", Get(b, "joined", ""));
+  // Appended, so older columns keep their places: the private part of each
+  // process's RSS and its touched shared-segment pages (the rings).
+  for (const std::string p : kChildren) {
+    const nlohmann::json c = child("rumi-" + p);
+    col(p + "_private_mib", Get(c, "private_mib", ""));
+    col(p + "_shared_mib", Get(c, "shared_mib", ""));
+  }
   return (header ? h.str() + "\n" : std::string()) + v.str() + "\n";
 }
 
