@@ -11,6 +11,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "common/atomic_file.h"
+
 namespace rumi {
 
 // Dark slate with unequal channels: anti-aliased black text on white (pure
@@ -453,13 +455,16 @@ std::vector<int64_t> SubmapIdsByTime(const Trajectory& poses,
 }
 
 void WritePng(const std::string& path, const cv::Mat& image) {
+  std::vector<uint8_t> png;
   bool ok = false;
   try {
-    ok = cv::imwrite(path, image);
+    ok = !image.empty() && cv::imencode(".png", image, png);
   } catch (const cv::Exception& e) {
-    throw std::runtime_error(path + ": cannot write PNG: " + e.what());
+    throw std::runtime_error(path + ": cannot encode PNG: " + e.what());
   }
-  if (!ok) throw std::runtime_error(path + ": cannot write PNG");
+  if (!ok) throw std::runtime_error(path + ": cannot encode PNG");
+  std::string why;
+  if (!WriteFileAtomically(path, png.data(), png.size(), &why)) throw std::runtime_error(why);
 }
 
 }  // namespace rumi

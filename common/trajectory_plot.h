@@ -94,7 +94,8 @@ std::vector<int64_t> SubmapIdsByTime(const Trajectory& poses,
                                      const std::vector<TimelineFrame>& frames,
                                      Timestamp tolerance_ns = 1000000);
 
-// cv::imwrite with errors as std::runtime_error naming the path.
+// The image as a PNG file, written atomically; errors as std::runtime_error
+// naming the path.
 void WritePng(const std::string& path, const cv::Mat& image);
 
 }  // namespace rumi

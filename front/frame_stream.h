@@ -19,6 +19,7 @@
 // A frame whose size is not the camera's is refused: StreamError (bad input).
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -83,6 +84,18 @@ class FrameStream {
   // it (hierarchical mode). True when the robot confirmed what was asked.
   virtual bool SetHalt(bool /*halt*/) { return true; }
   virtual bool can_halt() const { return false; }
+  // Called on Next's thread about every 200 ms while Next waits for a frame
+  // that does not come (a live source): the caller's upkeep that must not
+  // wait for the next frame (a halted robot's resume).
+  void SetIdle(std::function<void()> idle) { idle_ = std::move(idle); }
+
+ protected:
+  void Idle() const {
+    if (idle_) idle_();
+  }
+
+ private:
+  std::function<void()> idle_;
 };
 
 struct StreamOpenOptions {

@@ -279,5 +279,30 @@ TEST(FrameStream, AStreamThatIsNotThereYetIsRetriedUntilStopped) {
   EXPECT_NE(stream->Status().find("reconnecting"), std::string::npos) << stream->Status();
 }
 
+TEST(FrameStream, AWaitingLinkStreamCallsItsIdleUpkeep) {
+  // No robot sends: Next waits, and calls the caller's upkeep about every
+  // 200 ms (how a halted robot is resumed when it sends nothing).
+  const PinholeCameraOptions cam = QvgaCamera();
+  StreamOpenOptions o;
+  o.source.kind = "link";
+  o.source.link.bind = "127.0.0.1:0";
+  o.camera = &cam;
+  auto stream = OpenFrameStream(o);
+  ASSERT_TRUE(stream->can_halt());
+  std::atomic<bool> stop{false};
+  std::atomic<int> idle{0};
+  stream->SetIdle([&] {
+    if (++idle >= 3) stop = true;
+  });
+  std::thread guard([&] {  // bounded: never more than 20 s
+    for (int i = 0; i < 200 && !stop; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    stop = true;
+  });
+  Frame f;
+  EXPECT_FALSE(stream->Next(&f, nullptr, &stop));
+  guard.join();
+  EXPECT_GE(idle.load(), 3);
+}
+
 }  // namespace
 }  // namespace rumi

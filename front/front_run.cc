@@ -83,6 +83,21 @@ int RunFront(const FrontRunOptions& o, const std::atomic<bool>* stop) {
     std::unique_ptr<MapNoticeReceiver> notices;
     if (halting) notices = std::make_unique<MapNoticeReceiver>(o.ipc);
     MapNotice map_notice;
+    // finished_id >= 0: the front just finished that submap (its last frame
+    // at finished_end); the newest map notice says whether the map has it.
+    auto update_halt = [&](int64_t finished_id, Timestamp finished_end) {
+      notices->ReceiveNewest(&map_notice);  // keeps the last one when there is none new
+      const bool want = halt.Update(finished_id, finished_end, map_notice.front_submap_upto,
+                                    map_notice.front_submap_end, SecondsSince(run_start));
+      stream->SetHalt(want);
+      std::lock_guard<std::mutex> l(halt_mutex);
+      halt_stats = halt.stats();
+    };
+    // A halted robot may send no frame until it walks again: the merge that
+    // ends the halt is also looked for while the stream waits.
+    if (halting) stream->SetIdle([&] {
+        if (halt.halted()) update_halt(-1, 0);
+      });
     pub.SetSourceDetail([source, halting, &halt_mutex, &halt_stats] {
       nlohmann::json d = source->Detail();
       if (halting && d.is_object()) {
@@ -144,13 +159,8 @@ int RunFront(const FrontRunOptions& o, const std::atomic<bool>* stop) {
       if (halting) {
         const auto& fin = front.FinishedSubmaps();
         const bool finished = !coarse_before && front.halt() && !fin.empty() && fin.back().id == submap_before;
-        notices->ReceiveNewest(&map_notice);  // keeps the last one when there is none new
         const Timestamp finished_end = finished && !fin.back().frames.empty() ? fin.back().frames.back().timestamp : 0;
-        const bool want = halt.Update(finished ? submap_before : -1, finished_end, map_notice.front_submap_upto,
-                                      map_notice.front_submap_end, SecondsSince(run_start));
-        stream->SetHalt(want);
-        std::lock_guard<std::mutex> l(halt_mutex);
-        halt_stats = halt.stats();
+        update_halt(finished ? submap_before : -1, finished_end);
       }
       const FrameTiming& tm = front.timings().back();
       pub.OnFrame(rec, frame.image, tm.total_ms, tm.cpu_ms, front.current_submap_keyframes(), front.FinishedSubmaps(),
@@ -160,6 +170,7 @@ int RunFront(const FrontRunOptions& o, const std::atomic<bool>* stop) {
       ++used;
     }
     if (halting) {
+      stream->SetIdle(nullptr);
       stream->SetHalt(false);  // never leave the robot standing
       spdlog::info("front: robot link: {}", halt.Describe());
     }

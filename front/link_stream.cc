@@ -55,6 +55,7 @@ class LinkStream : public FrameStream {
     for (;;) {
       if (stop && stop->load()) return false;
       if (!link_->NextFrame(&f, 200, stop)) {
+        Idle();
         if (o_.end_after_silence_s > 0) {
           const LinkStats s = link_->stats();
           if (s.robot_heard && s.robot_silent_s >= o_.end_after_silence_s) {

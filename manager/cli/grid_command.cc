@@ -73,7 +73,7 @@ void RegisterGridCommand(CLI::App* app) {
 
 void AddEvalGridCommand(CLI::App* eval) {
   struct Args {
-    std::string run, sequence;
+    std::string run, sequence, diff;
     bool json = false;
   };
   auto a = std::make_shared<Args>();
@@ -82,6 +82,9 @@ void AddEvalGridCommand(CLI::App* eval) {
   cmd->add_option("run", a->run, "folder holding grid.yaml and grid_trajectory.txt")->required();
   cmd->add_option("sequence", a->sequence, "the `rumi synth` folder (floorplan.yaml, groundtruth.txt)")->required();
   cmd->add_flag("--json", a->json, "one JSON object");
+  cmd->add_option("--diff", a->diff,
+                  "PNG of the comparison in the truth's frame: walls found black, called free red, unknown blue; "
+                  "free found white, unknown light grey, called a wall orange");
   cmd->callback([a] {
     const fs::path run = a->run, seq = a->sequence;
     MapServerGrid est, truth;
@@ -95,19 +98,24 @@ void AddEvalGridCommand(CLI::App* eval) {
     } catch (const std::exception& e) {
       Fail(std::string("aligning the grid's trajectory to the ground truth: ") + e.what());
     }
-    const GridScore g = ScoreGrid(est, truth, fit.S_gt_est.Inverse());
+    std::vector<CellMatch> labels;
+    const GridScore g = ScoreGrid(est, truth, fit.S_gt_est.Inverse(), a->diff.empty() ? nullptr : &labels);
+    if (!a->diff.empty() && !WriteGridComparison(truth, labels, a->diff, &why)) Fail(why);
     if (a->json) {
       std::cout << fmt::format(
           "{{\"occupied_iou\": {:.4f}, \"free_iou\": {:.4f}, \"coverage\": {:.4f}, \"true_free_cells\": {}, "
           "\"true_occupied_cells\": {}, \"observed_cells\": {}, \"alignment_scale\": {:.4f}, "
-          "\"alignment_rmse_m\": {:.4f}}}\n",
+          "\"alignment_rmse_m\": {:.4f}, \"walls_found\": {}, \"walls_as_free\": {}, \"walls_unknown\": {}, "
+          "\"false_walls\": {}}}\n",
           g.occupied_iou, g.free_iou, g.coverage, g.true_free, g.true_occupied, g.observed, fit.S_gt_est.scale(),
-          fit.translation.rmse);
+          fit.translation.rmse, g.walls_found, g.walls_as_free, g.walls_unknown, g.false_walls);
     } else {
       std::cout << fmt::format(
           "occupied IoU {:.3f}, free IoU {:.3f} (observed area), coverage of the true free space {:.1f} %; {} cells "
-          "compared; trajectory aligned with scale {:.3f}, RMSE {:.3f} m\n",
-          g.occupied_iou, g.free_iou, 100 * g.coverage, g.observed, fit.S_gt_est.scale(), fit.translation.rmse);
+          "compared; trajectory aligned with scale {:.3f}, RMSE {:.3f} m\n"
+          "true wall cells: {} found, {} called free, {} unknown; {} free cells called a wall\n",
+          g.occupied_iou, g.free_iou, 100 * g.coverage, g.observed, fit.S_gt_est.scale(), fit.translation.rmse,
+          g.walls_found, g.walls_as_free, g.walls_unknown, g.false_walls);
     }
   });
 }

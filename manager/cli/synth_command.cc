@@ -22,10 +22,11 @@ namespace fs = std::filesystem;
 // The scene's true floor plan (walls and furniture cut at the grid's robot
 // band), as a map_server grid beside the sequence: what `rumi eval grid`
 // scores a grid against.
-bool WriteFloorPlan(const SynthOptions& o, const std::string& out, double robot_height_m) {
+bool WriteFloorPlan(const SynthOptions& o, const std::string& out, double robot_height_m, double resolution_m) {
   const SyntheticSequence seq(o);
   GridOptions g;
   if (robot_height_m > 0) g.robot_height_m = robot_height_m;
+  if (resolution_m > 0) g.cells.resolution_m = resolution_m;
   Eigen::Vector2d lo = Eigen::Vector2d::Constant(1e9), hi = -lo;
   for (const auto& [a, b] : seq.scene().free_space) {
     lo = lo.cwiseMin(a.head<2>());
@@ -58,6 +59,8 @@ struct SynthArgs {
   bool orb_only = false;
   double sift_peak = 0;
   double grid_robot_height = 0;  // floorplan.pgm's band top; 0: grid.robot_height_m's default
+  double grid_resolution = 0;    // floorplan.pgm's cell; 0: grid.resolution_m's default
+  bool floorplan_only = false;
   SynthOptions o;
 };
 
@@ -114,10 +117,14 @@ int RunSynth(SynthArgs& a) {
       std::printf("%s\n", r.Summary().c_str());
       return r.ok ? 0 : 1;
     }
+    if (a.floorplan_only) {
+      fs::create_directories(a.out);
+      return WriteFloorPlan(a.o, a.out, a.grid_robot_height, a.grid_resolution) ? 0 : 1;
+    }
     const SynthWriteResult r = SynthesizeSequence(a.o, a.out);
     spdlog::info("synth: wrote {} frames ({} dropped) to {} in {:.1f} s; path {:.2f} m", r.frames_written,
                  r.frames_dropped, a.out, r.render_seconds, r.path_length_m);
-    if (!WriteFloorPlan(a.o, a.out, a.grid_robot_height)) return 1;
+    if (!WriteFloorPlan(a.o, a.out, a.grid_robot_height, a.grid_resolution)) return 1;
   } catch (const std::exception& e) {
     spdlog::error("synth: {}", e.what());
     return 1;
@@ -162,7 +169,13 @@ void RegisterSynthCommand(CLI::App* app) {
       ->capture_default_str();
   sub->add_option("--contact-sheet", args->contact_sheet, "write an 8-thumbnail PNG contact sheet here");
   sub->add_option("--grid-robot-height", args->grid_robot_height,
-                  "top of the band floorplan.pgm is cut at, metres (as grid.robot_height_m; default its default)");
+                  "top of the band floorplan.pgm is cut at, metres (as grid.robot_height_m; default its default)")
+      ->check(CLI::NonNegativeNumber);
+  sub->add_option("--grid-resolution", args->grid_resolution,
+                  "cell side of floorplan.pgm, metres (as grid.resolution_m; default its default)")
+      ->check(CLI::NonNegativeNumber);
+  sub->add_flag("--floorplan-only", args->floorplan_only,
+                "write only floorplan.pgm/.yaml (same scenario, seed and options), no frames");
   sub->add_flag("--calibrate", args->calibrate,
                 "check the hard stretch: ORB counts and a COLMAP exhaustive run on a window (slow); OUT is the work folder");
   sub->add_flag("--orb-only", args->orb_only, "with --calibrate: ORB counts only, no COLMAP");

@@ -23,7 +23,6 @@ const OptionSpec<GridOptions>& GridOptions::Spec() {
 void AddKeyframeToGrid(const GridKeyframe& kf, const Sim3& S_gm, const GridOptions& o, OccupancyGrid* grid,
                        GridBuildStats* stats) {
   const Eigen::Vector3d c = S_gm * kf.T_wc.translation();
-  const Eigen::Vector2d from = c.head<2>();
   for (const Eigen::Vector3d& pm : kf.points) {
     const Eigen::Vector3d p = S_gm * pm;
     if (p.z() > o.robot_height_m) {
@@ -31,7 +30,7 @@ void AddKeyframeToGrid(const GridKeyframe& kf, const Sim3& S_gm, const GridOptio
       continue;
     }
     const bool hit = p.z() >= o.floor_band_m;
-    if (!grid->AddRay(from, p.head<2>(), hit)) {
+    if (!grid->AddRay3d(c, p, hit)) {
       ++stats->rays_refused;
       continue;
     }
@@ -44,7 +43,7 @@ OccupancyGrid BuildGrid(const std::vector<GridKeyframe>& keyframes, const Sim3& 
                         GridBuildStats* stats) {
   const auto t0 = std::chrono::steady_clock::now();
   GridBuildStats local;
-  OccupancyGrid grid(options.cells);
+  OccupancyGrid grid(options.cells, options.floor_band_m, options.robot_height_m);
   for (const GridKeyframe& kf : keyframes) AddKeyframeToGrid(kf, S_gm, options, &grid, &local);
   local.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (stats) *stats = local;

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "common/atomic_file.h"
+#include "common/trajectory_plot.h"
 
 namespace rumi {
 namespace fs = std::filesystem;
@@ -177,12 +178,13 @@ bool WriteGridPreview(const OccupancyGrid& grid, const std::vector<Eigen::Vector
   for (size_t k = 1; k < trajectory.size(); ++k)
     cv::line(img, pixel(trajectory[k - 1]), pixel(trajectory[k]), cv::Scalar(0, 0, 255), 1, cv::LINE_AA);
   if (!trajectory.empty()) cv::circle(img, pixel(trajectory.front()), 3, cv::Scalar(0, 160, 0), cv::FILLED);
-  std::vector<uint8_t> png;
-  if (!cv::imencode(".png", img, png)) {
-    *why = png_path + ": PNG encoding failed";
+  try {
+    WritePng(png_path, img);
+  } catch (const std::exception& e) {
+    *why = e.what();
     return false;
   }
-  return WriteFileAtomically(png_path, png, why);
+  return true;
 }
 
 }  // namespace rumi

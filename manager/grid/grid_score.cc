@@ -1,6 +1,9 @@
 #include "manager/grid/grid_score.h"
 
 #include <cmath>
+#include <opencv2/core.hpp>
+
+#include "common/trajectory_plot.h"
 
 namespace rumi {
 
@@ -14,6 +17,9 @@ MapServerGrid RasterizeFloorPlan(const std::function<double(const Eigen::Vector3
   g.height = static_cast<int>(std::ceil((hi.y() - lo.y()) / resolution));
   g.pixels.assign(static_cast<size_t>(g.width) * g.height, kPgmUnknown);
   const double half = resolution * std::sqrt(2.0) / 2;
+  // Sample heights from half a diagonal above the band's bottom: a surface
+  // below the band (the floor) must not reach a cell through the tolerance.
+  z_lo = std::min(z_lo + half, z_hi);
   const int layers = std::max(2, static_cast<int>(std::ceil((z_hi - z_lo) / resolution)) + 1);
   for (int row = 0; row < g.height; ++row)
     for (int col = 0; col < g.width; ++col) {
@@ -30,8 +36,10 @@ MapServerGrid RasterizeFloorPlan(const std::function<double(const Eigen::Vector3
   return g;
 }
 
-GridScore ScoreGrid(const MapServerGrid& est, const MapServerGrid& truth, const Sim3& S) {
+GridScore ScoreGrid(const MapServerGrid& est, const MapServerGrid& truth, const Sim3& S,
+                    std::vector<CellMatch>* labels) {
   GridScore s;
+  if (labels) labels->assign(static_cast<size_t>(truth.width) * truth.height, CellMatch::kNotCompared);
   int occ_inter = 0, occ_union = 0, free_inter = 0, free_union = 0, free_known = 0;
   for (int row = 0; row < truth.height; ++row)
     for (int col = 0; col < truth.width; ++col) {
@@ -45,6 +53,15 @@ GridScore ScoreGrid(const MapServerGrid& est, const MapServerGrid& truth, const 
       const int r = static_cast<int>(std::floor((q.y() - est.origin.y()) / est.resolution));
       const CellState e =
           c >= 0 && r >= 0 && c < est.width && r < est.height ? est.State(c, r) : CellState::kUnknown;
+      const bool wall = t == CellState::kOccupied;
+      const CellMatch m = e == CellState::kUnknown ? (wall ? CellMatch::kWallUnknown : CellMatch::kFreeUnknown)
+                          : e == CellState::kOccupied ? (wall ? CellMatch::kWallFound : CellMatch::kFreeAsWall)
+                                                      : (wall ? CellMatch::kWallAsFree : CellMatch::kFreeFound);
+      if (labels) (*labels)[static_cast<size_t>(row) * truth.width + col] = m;
+      s.walls_found += m == CellMatch::kWallFound;
+      s.walls_as_free += m == CellMatch::kWallAsFree;
+      s.walls_unknown += m == CellMatch::kWallUnknown;
+      s.false_walls += m == CellMatch::kFreeAsWall;
       if (e == CellState::kUnknown) continue;
       ++s.observed;
       if (t == CellState::kFree) ++free_known;
@@ -57,6 +74,38 @@ GridScore ScoreGrid(const MapServerGrid& est, const MapServerGrid& truth, const 
   s.free_iou = free_union ? static_cast<double>(free_inter) / free_union : 0;
   s.coverage = s.true_free ? static_cast<double>(free_known) / s.true_free : 0;
   return s;
+}
+
+bool WriteGridComparison(const MapServerGrid& truth, const std::vector<CellMatch>& labels, const std::string& png_path,
+                         std::string* why) {
+  if (labels.size() != static_cast<size_t>(truth.width) * truth.height || labels.empty()) {
+    *why = "no cells to draw";
+    return false;
+  }
+  // BGR: free found white, free unknown light grey, false wall orange; wall
+  // found black, wall called free red, wall unknown blue; not compared grey.
+  auto colour = [](CellMatch m) {
+    switch (m) {
+      case CellMatch::kFreeFound: return cv::Vec3b(255, 255, 255);
+      case CellMatch::kFreeUnknown: return cv::Vec3b(215, 215, 215);
+      case CellMatch::kFreeAsWall: return cv::Vec3b(0, 140, 255);
+      case CellMatch::kWallFound: return cv::Vec3b(0, 0, 0);
+      case CellMatch::kWallAsFree: return cv::Vec3b(0, 0, 230);
+      case CellMatch::kWallUnknown: return cv::Vec3b(200, 90, 0);
+      default: return cv::Vec3b(128, 128, 128);
+    }
+  };
+  cv::Mat img(truth.height, truth.width, CV_8UC3);
+  for (int row = 0; row < truth.height; ++row)
+    for (int col = 0; col < truth.width; ++col)
+      img.at<cv::Vec3b>(truth.height - 1 - row, col) = colour(labels[static_cast<size_t>(row) * truth.width + col]);
+  try {
+    WritePng(png_path, img);
+  } catch (const std::exception& e) {
+    *why = e.what();
+    return false;
+  }
+  return true;
 }
 
 }  // namespace rumi

@@ -5,6 +5,7 @@
 // both know the cell.
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "common/geometry.h"
 #include "manager/grid/grid_file.h"
@@ -25,10 +26,25 @@ struct GridScore {
   double free_iou = 0;      // the same for free
   double coverage = 0;      // true free cells the estimate knows (free or occupied) / true free cells
   int true_free = 0, true_occupied = 0, observed = 0;
+  // Where the occupied cells disagree: true walls the grid calls free, or
+  // does not know; free true cells the grid calls occupied.
+  int walls_found = 0, walls_as_free = 0, walls_unknown = 0, false_walls = 0;
+};
+
+// One label per true cell (row-major, row 0 = the truth's bottom row), for a
+// picture of the comparison.
+enum class CellMatch : uint8_t {
+  kNotCompared,  // unknown in the truth
+  kFreeFound, kFreeUnknown, kFreeAsWall,
+  kWallFound, kWallAsFree, kWallUnknown,
 };
 
 // S_est_true maps the truth's frame into the estimate's (x, y; z dropped).
 // "Observed": true cells (free or occupied) whose estimate is not unknown.
-GridScore ScoreGrid(const MapServerGrid& estimate, const MapServerGrid& truth, const Sim3& S_est_true);
+GridScore ScoreGrid(const MapServerGrid& estimate, const MapServerGrid& truth, const Sim3& S_est_true,
+                    std::vector<CellMatch>* labels = nullptr);
+// The labels as a colour PNG in the truth's frame (first row = largest y).
+bool WriteGridComparison(const MapServerGrid& truth, const std::vector<CellMatch>& labels, const std::string& png_path,
+                         std::string* why);
 
 }  // namespace rumi

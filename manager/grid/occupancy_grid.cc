@@ -14,6 +14,8 @@ const OptionSpec<OccupancyGridOptions>& OccupancyGridOptions::Spec() {
     s->Number("clamp_max", &O::clamp_max, Above(0.5), Below(1.0), "highest probability a cell keeps");
     s->Number("max_range_m", &O::max_range_m, Above(0.0), AtMost(1000.0), "rays longer than this are ignored");
     s->Number("max_extent_m", &O::max_extent_m, Above(0.0), AtMost(100000.0), "largest side the grid grows to");
+    s->Number("slice_m", &O::slice_m, AtLeast(0.0), AtMost(100.0),
+              "height slices of a column (a ray over a low obstacle clears only its own height); 0: flat 2D");
     s->Section("ism", &O::ism, InverseSensorModelOptions::Spec());
     s->Rule("clamp_min < ism.p_prior < clamp_max",
             [](const O& o) { return o.clamp_min < o.ism.p_prior && o.ism.p_prior < o.clamp_max; });
@@ -22,10 +24,21 @@ const OptionSpec<OccupancyGridOptions>& OccupancyGridOptions::Spec() {
   return *spec;
 }
 
-OccupancyGrid::OccupancyGrid(OccupancyGridOptions options) : options_(std::move(options)) {
+OccupancyGrid::OccupancyGrid(OccupancyGridOptions options, double z_lo, double z_hi)
+    : options_(std::move(options)), z_lo_(z_lo), z_hi_(std::max(z_lo, z_hi)) {
   l0_ = LogOdds(options_.ism.p_prior);
   l_min_ = LogOdds(options_.clamp_min) - l0_;
   l_max_ = LogOdds(options_.clamp_max) - l0_;
+  l_occupied_ = static_cast<float>(LogOdds(0.65) - l0_);
+  if (options_.slice_m > 0 && z_hi_ > z_lo_)
+    slices_ = std::clamp(static_cast<int>(std::ceil((z_hi_ - z_lo_) / options_.slice_m - 1e-9)), 1, 64);
+}
+
+float OccupancyGrid::log_odds(int col, int row) const {
+  const float* l = &cells_[(static_cast<size_t>(row) * width_ + col) * slices_];
+  if (slices_ == 1) return l[0];
+  const auto [lo, hi] = std::minmax_element(l, l + slices_);
+  return *hi > l_occupied_ ? *hi : *lo < 0 ? *lo : *hi;
 }
 
 void OccupancyGrid::Clear() {
@@ -74,11 +87,12 @@ bool OccupancyGrid::Cover(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) 
   }
   const int w = static_cast<int>(std::ceil((new_hi.x() - origin.x()) / res));
   const int h = static_cast<int>(std::ceil((new_hi.y() - origin.y()) / res));
-  std::vector<float> cells(static_cast<size_t>(w) * h, 0.f);
+  std::vector<float> cells(static_cast<size_t>(w) * h * slices_, 0.f);
   const int dc = static_cast<int>(std::lround((origin_.x() - origin.x()) / res));
   const int dr = static_cast<int>(std::lround((origin_.y() - origin.y()) / res));
   for (int r = 0; r < height_; ++r)
-    std::copy_n(&cells_[static_cast<size_t>(r) * width_], width_, &cells[static_cast<size_t>(r + dr) * w + dc]);
+    std::copy_n(&cells_[static_cast<size_t>(r) * width_ * slices_], static_cast<size_t>(width_) * slices_,
+                &cells[(static_cast<size_t>(r + dr) * w + dc) * slices_]);
   cells_.swap(cells);
   origin_ = origin;
   width_ = w;
@@ -86,10 +100,11 @@ bool OccupancyGrid::Cover(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) 
   return true;
 }
 
-bool OccupancyGrid::AddRay(const Eigen::Vector2d& from, const Eigen::Vector2d& to, bool hit) {
+bool OccupancyGrid::AddRay3d(const Eigen::Vector3d& from3, const Eigen::Vector3d& to3, bool hit) {
+  const Eigen::Vector2d from = from3.head<2>(), to = to3.head<2>();
   const Eigen::Vector2d delta = to - from;
   const double range = delta.norm();
-  if (!(range > 1e-9) || range > options_.max_range_m || !from.allFinite() || !to.allFinite()) return false;
+  if (!(range > 1e-9) || range > options_.max_range_m || !from3.allFinite() || !to3.allFinite()) return false;
   const Eigen::Vector2d dir = delta / range;
   const double band = options_.Band(), sigma = options_.ism.Sigma(range);
   const double length = hit ? range + IsmReach(band, sigma) : range;
@@ -117,10 +132,18 @@ bool OccupancyGrid::AddRay(const Eigen::Vector2d& from, const Eigen::Vector2d& t
   // date as the traversal steps a column or a row.
   double d = (CellCentre(c, r) - from).dot(dir) - range;
   const double dd_c = step_c * res * dir.x(), dd_r = step_r * res * dir.y();
+  // The ray's height over a cell: linear in its length, the point's height
+  // past it; as a slice index, also linear.
+  const double slice_per_m = slices_ > 1 ? slices_ / (z_hi_ - z_lo_) : 0;
+  const double k_from = (from3.z() - z_lo_) * slice_per_m, k_to = (to3.z() - z_lo_) * slice_per_m;
   for (int i = 0; i < max_steps; ++i) {
     if (c >= 0 && r >= 0 && c < width_ && r < height_) {
       const double l = d < free_until ? l_free : LogOdds(FastIsm(ism, d, band, sigma)) - l0_;
-      float& cell = cells_[static_cast<size_t>(r) * width_ + c];
+      // Above the band (a camera higher than the robot) the ray counts for
+      // the top slice, below it for the bottom one.
+      const double u = std::clamp(1 + d / range, 0.0, 1.0);
+      const int k = slices_ == 1 ? 0 : std::clamp(static_cast<int>(k_from + u * (k_to - k_from)), 0, slices_ - 1);
+      float& cell = cells_[(static_cast<size_t>(r) * width_ + c) * slices_ + k];
       cell = static_cast<float>(std::clamp(cell + l, l_min_, l_max_));
       ++cells_updated_;
     }

@@ -23,6 +23,7 @@ struct OccupancyGridOptions {
   double clamp_max = 0.97;
   double max_range_m = 8.0;    // rays to points farther than this are ignored
   double max_extent_m = 500;   // the grid refuses to grow past this side (a wild point)
+  double slice_m = 0.25;       // height slices of a column; 0: one (a flat 2D grid)
   InverseSensorModelOptions ism;
   static const OptionSpec<OccupancyGridOptions>& Spec();  // section `grid:` (cells)
   bool Check(std::string* why = nullptr) const { return Spec().Check(*this, why); }
@@ -33,14 +34,24 @@ enum class CellState : uint8_t { kUnknown, kFree, kOccupied };
 
 class OccupancyGrid {
  public:
-  explicit OccupancyGrid(OccupancyGridOptions options = {});
+  // Cells are columns over the height band [z_lo, z_hi], cut into slices of
+  // options.slice_m: a ray that passes over a low obstacle is free evidence
+  // at its own height only, so it cannot erase the obstacle's hits lower down.
+  // A column is occupied when one slice is; else it reads as its freest
+  // observed slice.
+  explicit OccupancyGrid(OccupancyGridOptions options = {}, double z_lo = 0, double z_hi = 0);
 
   // One ray from `from` (the camera centre on the ground plane) to `to`: with
   // hit, `to` is an obstacle and the full ISM applies (free before it,
   // occupied around it, nothing behind); without, the ray is free evidence up
   // to `to` only (a floor point: no band). False when the ray is ignored
   // (too long, zero length, or it would grow the grid past max_extent_m).
-  bool AddRay(const Eigen::Vector2d& from, const Eigen::Vector2d& to, bool hit);
+  bool AddRay(const Eigen::Vector2d& from, const Eigen::Vector2d& to, bool hit) {
+    return AddRay3d(Eigen::Vector3d(from.x(), from.y(), z_lo_), Eigen::Vector3d(to.x(), to.y(), z_lo_), hit);
+  }
+  // The same in 3D: each cell's evidence goes to the slice at the ray's
+  // height over it.
+  bool AddRay3d(const Eigen::Vector3d& from, const Eigen::Vector3d& to, bool hit);
 
   void Clear();
   int width() const { return width_; }
@@ -48,8 +59,10 @@ class OccupancyGrid {
   double resolution() const { return options_.resolution_m; }
   Eigen::Vector2d origin() const { return origin_; }
   const OccupancyGridOptions& options() const { return options_; }
-  // Log-odds of a cell (0 = prior); cell (col, row) must be inside.
-  float log_odds(int col, int row) const { return cells_[static_cast<size_t>(row) * width_ + col]; }
+  // Log-odds of a column (0 = prior): its most occupied slice when that one
+  // is above occupied_thresh, else its freest; (col, row) must be inside.
+  float log_odds(int col, int row) const;
+  int slices() const { return slices_; }
   double probability(int col, int row) const { return Probability(log_odds(col, row) + l0_); }
   // The cell holding a point; false when outside the grid.
   bool CellOf(const Eigen::Vector2d& p, int* col, int* row) const;
@@ -64,6 +77,9 @@ class OccupancyGrid {
 
   OccupancyGridOptions options_;
   double l0_, l_min_, l_max_;  // log-odds of prior and clamps; cells store l - l0
+  float l_occupied_;           // column log-odds above which a slice makes its column occupied
+  double z_lo_ = 0, z_hi_ = 0;
+  int slices_ = 1;             // cells_ holds slices_ floats per column
   Eigen::Vector2d origin_ = Eigen::Vector2d::Zero();
   int width_ = 0, height_ = 0;
   std::vector<float> cells_;

@@ -94,6 +94,43 @@ TEST(OccupancyGrid, BadRaysAreRefused) {
   EXPECT_LT(g.width() * g.resolution(), 50 + 2 * 64 * g.resolution() + 1);
 }
 
+// A low box (top at 0.4 m, x in [1, 1.3]) seen from a camera at 1.2 m: a
+// few rays end on its top; many more pass over it, higher up, to a wall at
+// x = 3. Height slices keep the box; a flat grid lets the rays erase it.
+CellState LowBoxUnderRays(double slice_m) {
+  OccupancyGridOptions o;
+  o.slice_m = slice_m;
+  OccupancyGrid g(o, 0.05, 2.0);
+  const Eigen::Vector3d cam(0, 0, 1.2);
+  for (int t = 0; t < 3; ++t)
+    for (double y = -0.2; y <= 0.2; y += 0.02) {
+      for (double x = 1.0; x <= 1.3; x += 0.05) EXPECT_TRUE(g.AddRay3d(cam, {x, y, 0.4}, true));
+      for (double z = 0.8; z <= 1.6; z += 0.1) EXPECT_TRUE(g.AddRay3d(cam, {3.0, y, z}, true));
+    }
+  return At(g, 1.12, 0.01);
+}
+
+TEST(OccupancyGrid, ARayOverALowObstacleDoesNotEraseIt) {
+  EXPECT_EQ(LowBoxUnderRays(0.25), CellState::kOccupied);
+  EXPECT_EQ(LowBoxUnderRays(0), CellState::kFree);  // flat: what the slices are for
+}
+
+TEST(OccupancyGrid, AColumnIsItsMostOccupiedOrFreestSlice) {
+  OccupancyGridOptions o;
+  o.slice_m = 0.5;
+  OccupancyGrid g(o, 0.0, 2.0);
+  ASSERT_EQ(g.slices(), 4);
+  // Free at 1.2 m only (a ray passing over), then a hit at 0.3 m in the same column.
+  for (int t = 0; t < 5; ++t) EXPECT_TRUE(g.AddRay3d({0, 0, 1.2}, {2.0, 0.01, 1.2}, true));
+  EXPECT_EQ(At(g, 1.0, 0.0), CellState::kFree);
+  for (int t = 0; t < 5; ++t) EXPECT_TRUE(g.AddRay3d({0, 0, 1.2}, {1.0, 0.01, 0.3}, true));
+  EXPECT_EQ(At(g, 1.0, 0.0), CellState::kOccupied);
+  // slice_m 0: one value per column (a flat grid).
+  o.slice_m = 0;
+  OccupancyGrid flat(o, 0.0, 2.0);
+  EXPECT_EQ(flat.slices(), 1);
+}
+
 TEST(OccupancyGrid, OptionsChecked) {
   OccupancyGridOptions o;
   std::string why;
