@@ -70,6 +70,9 @@ const OptionSpec<ManagerOptions>& ManagerOptions::Spec() {
               "place merge: inlier ratio");
     s->Number("place_max_rmse_px", &O::place_max_rmse_px, Above(0.0), AtMost(1000.0),
               "place merge: refined reprojection RMSE");
+    s->Number("place_retry_growth", &O::place_retry_growth, AtLeast(0.0), AtMost(100.0),
+              "place merge: a rejected pair is tried again once a side has grown by this share of its keyframes "
+              "(0: at any change)");
     s->Flag("odometry_merge", &O::odometry_merge, "join consecutive front submaps through the pose source");
     s->Number("odometry_window_s", &O::odometry_window_s, Above(0.0), AtMost(3600.0),
               "odometry merge: fit window around the gap, s");

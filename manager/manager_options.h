@@ -100,6 +100,9 @@ struct ManagerOptions {
   int place_min_inliers = 40;
   double place_min_inlier_ratio = 0.25;
   double place_max_rmse_px = 3.0;
+  // A rejected pair is tried again once one side has grown by this share of
+  // its keyframes (0: at any change).
+  double place_retry_growth = 0.25;
   // Odometry merge (manager/odometry_merge.h): front submaps still apart
   // after the visual merges, consecutive in time and at most
   // odometry_max_gap_s apart, are joined through the pose source they carry.

@@ -161,12 +161,45 @@ MergeReport PlaceMergePair(GlobalMap* map, int a, int b, const ManagerOptions& o
   return r;
 }
 
+namespace {
+
+SubmapKey KeyOf(const Submap& s) { return {s.source, s.id}; }
+
+// Unchanged, or grown by less than `growth` of what it had (never shrunk).
+bool Within(size_t then, size_t now, double growth) {
+  if (now == then) return true;
+  return growth > 0 && now > then && static_cast<double>(now - then) < growth * static_cast<double>(then);
+}
+
+}  // namespace
+
+bool PlaceMergeMemo::Rejected(const Submap& a, const Submap& b, double retry_growth) const {
+  const auto it = rejected_.find({KeyOf(a), KeyOf(b)});
+  if (it == rejected_.end()) return false;
+  const Sizes& t = it->second;
+  if (retry_growth <= 0)  // the exact version only
+    return t.keyframes_a == a.keyframes.size() && t.points_a == a.points.size() &&
+           t.keyframes_b == b.keyframes.size() && t.points_b == b.points.size();
+  return Within(t.keyframes_a, a.keyframes.size(), retry_growth) &&
+         Within(t.keyframes_b, b.keyframes.size(), retry_growth);
+}
+
+void PlaceMergeMemo::AddRejected(const Submap& a, const Submap& b) {
+  rejected_[{KeyOf(a), KeyOf(b)}] = {a.keyframes.size(), a.points.size(), b.keyframes.size(), b.points.size()};
+}
+
 std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& options, PlaceMergeMemo* memo,
                                        MergeMemo* merge_memo, const std::atomic<bool>* cancel) {
   std::vector<MergeReport> reports;
   if (!options.place_merge) return reports;
   if (merge_memo) merge_memo->BeginPlaceRun(*map);
   std::vector<std::pair<int, int>> tried;  // data unchanged: no retry
+  // The front submap still being built is the newest; the others are
+  // finished, and each is matched once more in its final form.
+  int newest = -1;
+  for (int j = 0; j < int(map->size()); ++j)
+    if (map->submap(j).source == SubmapSource::kFront && (newest < 0 || map->submap(j).id > map->submap(newest).id))
+      newest = j;
   for (bool progress = true; progress;) {
     progress = false;
     for (int j = 0; j < int(map->size()); ++j) {
@@ -181,7 +214,8 @@ std::vector<MergeReport> PlaceMergeAll(GlobalMap* map, const ManagerOptions& opt
         if (std::find(tried.begin(), tried.end(), std::make_pair(i, j)) != tried.end()) continue;
         if (cancel && cancel->load()) break;
         tried.emplace_back(i, j);
-        if (memo && memo->Rejected(map->submap(i), map->submap(j))) continue;
+        const double growth = i == newest || j == newest ? options.place_retry_growth : 0;
+        if (memo && memo->Rejected(map->submap(i), map->submap(j), growth)) continue;
         reports.push_back(merge_memo ? merge_memo->Place(map, i, j, options) : PlaceMergePair(map, i, j, options));
         if (reports.back().merged) {
           progress = true;

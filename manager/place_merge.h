@@ -11,8 +11,7 @@
 // a missed one only leaves two components.
 #include <atomic>
 #include <map>
-#include <set>
-#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "manager/common_points.h"
@@ -33,10 +32,10 @@ std::vector<PointMatch> MatchMapPoints(const Submap& a, const Submap& b, int max
 // recognition. Reason set when not merged.
 MergeReport PlaceMergePair(GlobalMap* map, int a, int b, const ManagerOptions& options);
 
-// Pairs of submaps already matched without a merge, by content (keyframe and
-// point counts): the manager rebuilds the map every time a submap arrives,
-// and a finished front submap never changes, so with the memo only pairs
-// that involve a grown submap are matched again (O(n) per rebuild, not
+// Pairs of submaps already matched without a merge, with their keyframe and
+// point counts then: the manager rebuilds the map every time a submap
+// arrives, and a finished front submap never changes, so with the memo only
+// pairs that involve a grown submap are matched again (O(n) per rebuild, not
 // O(n^2)). A rejection depends only on the two submaps and the options.
 // It also remembers which submap each one last merged with: a front submap
 // resent while it grows is tried first against that one, which it almost
@@ -44,8 +43,15 @@ MergeReport PlaceMergePair(GlobalMap* map, int a, int b, const ManagerOptions& o
 // (in a looped walk that was tens of full matchings per rebuild).
 class PlaceMergeMemo {
  public:
-  bool Rejected(const Submap& a, const Submap& b) const { return rejected_.count(Key(a, b)) > 0; }
-  void AddRejected(const Submap& a, const Submap& b) { rejected_.insert(Key(a, b)); }
+  // The pair was rejected before, and since then neither side has grown by
+  // `retry_growth` of its keyframes nor shrunk (0: neither changed at all).
+  // PlaceMergeAll gives a growth only for pairs with the newest front, the
+  // one still being built: it is resent every 2 s, and matching it at each
+  // resend against every front it does not join was most of a rebuild's
+  // place time. Finished fronts are matched again at any change, so once in
+  // their final form.
+  bool Rejected(const Submap& a, const Submap& b, double retry_growth = 0) const;
+  void AddRejected(const Submap& a, const Submap& b);
   size_t size() const { return rejected_.size(); }
   void SetPartner(const SubmapKey& a, const SubmapKey& b) { partner_[a] = b, partner_[b] = a; }
   const SubmapKey* Partner(const SubmapKey& a) const {
@@ -55,14 +61,10 @@ class PlaceMergeMemo {
 
  private:
   std::map<SubmapKey, SubmapKey> partner_;
-  using SubmapVersion = std::tuple<int, int64_t, size_t, size_t>;  // source, id, keyframes, points
-  static SubmapVersion Version(const Submap& s) {
-    return {int(s.source), s.id, s.keyframes.size(), s.points.size()};
-  }
-  static std::pair<SubmapVersion, SubmapVersion> Key(const Submap& a, const Submap& b) {
-    return {Version(a), Version(b)};
-  }
-  std::set<std::pair<SubmapVersion, SubmapVersion>> rejected_;
+  struct Sizes {
+    size_t keyframes_a, points_a, keyframes_b, points_b;
+  };
+  std::map<std::pair<SubmapKey, SubmapKey>, Sizes> rejected_;  // at the last rejection
 };
 
 // Tries every pair of front submaps in different components, repeating until

@@ -108,14 +108,34 @@ TEST(PlaceMerge, MemoSkipsPairsRejectedBeforeUntilOneGrows) {
   again.AddSubmap(f.a.submap);
   again.AddSubmap(f.b.submap);
   EXPECT_TRUE(PlaceMergeAll(&again, ManagerOptions(), &memo).empty());
-  // B resent with more keyframes and now with matching descriptors: tried again, merged.
+  // B resent with matching descriptors and one more keyframe: below
+  // place_retry_growth, not tried (a resend of a growing front); with
+  // growth 0 any change is tried.
   Fixture g = Make(6);
-  g.b.submap.keyframes.push_back(g.b.submap.keyframes.back());
-  g.b.submap.keyframes.back().id += 100000;
-  GlobalMap grown;
-  grown.AddSubmap(g.a.submap);
-  grown.AddSubmap(g.b.submap);
-  const auto reports = PlaceMergeAll(&grown, ManagerOptions(), &memo);
+  auto grow = [&](size_t n) {
+    for (size_t k = 0; k < n; ++k) {
+      g.b.submap.keyframes.push_back(g.b.submap.keyframes.back());
+      g.b.submap.keyframes.back().id += 100000;
+    }
+    GlobalMap m;
+    m.AddSubmap(g.a.submap);
+    m.AddSubmap(g.b.submap);
+    return m;
+  };
+  const size_t kfs = f.b.submap.keyframes.size();
+  ASSERT_GE(kfs, 8u);  // one keyframe is less than a quarter
+  GlobalMap one_more = grow(1);
+  EXPECT_TRUE(PlaceMergeAll(&one_more, ManagerOptions(), &memo).empty());
+  ManagerOptions every_change;
+  every_change.place_retry_growth = 0;
+  PlaceMergeMemo copy = memo;
+  GlobalMap one_more_again = one_more;
+  auto reports = PlaceMergeAll(&one_more_again, every_change, &copy);
+  ASSERT_EQ(reports.size(), 1u);
+  EXPECT_TRUE(reports[0].merged) << reports[0].reason;
+  // Grown by a quarter of its keyframes: tried again, merged.
+  GlobalMap grown = grow(kfs / 4);
+  reports = PlaceMergeAll(&grown, ManagerOptions(), &memo);
   ASSERT_EQ(reports.size(), 1u);
   EXPECT_TRUE(reports[0].merged) << reports[0].reason;
 }
