@@ -59,21 +59,14 @@ class BackIpcTest : public ::testing::Test {
   // Fake colmap: the mapper copies canned/<stem of the first image>/ (if any)
   // into the output; feature extraction hangs when `hang` exists.
   std::string Config(int max_queue_windows = 4, const std::string& back_extra = "") {
-    const fs::path script = dir_ / "colmap.sh";
-    std::ofstream(script) << "#!/bin/sh\ncmd=$1\nout=''\nimg=''\nwhile [ $# -gt 0 ]; do\n"
-                          << "  if [ \"$1\" = --output_path ]; then out=$2; fi\n"
-                          << "  if [ \"$1\" = --image_path ]; then img=$2; fi\n  shift\ndone\n"
-                          << "d=" << dir_.string() << "\n"
-                          << "if [ $cmd = feature_extractor ] && [ -e $d/hang_exec ]; then\n"
-                          << "  echo $$ > $d/sleep.pid.tmp; mv $d/sleep.pid.tmp $d/sleep.pid; exec sleep 60; fi\n"
-                          << "if [ $cmd = feature_extractor ] && [ -e $d/hang ]; then\n"
-                          << "  echo $$ > $d/sh.pid; sleep 60 & echo $! > $d/sleep.pid.tmp;"
-                          << " mv $d/sleep.pid.tmp $d/sleep.pid; wait; fi\n"
-                          << "if [ $cmd = mapper ]; then first=$(ls $img | head -n 1);"
-                          << " m=$d/canned/${first%.png}; if [ -d $m ]; then cp -r $m/* $out/; fi; fi\n";
-    ::chmod(script.c_str(), 0755);
+    const std::string script =
+        WriteFakeColmap(dir_, std::string("if [ $cmd = feature_extractor ] && [ -e $d/hang_exec ]; then\n") +
+                                  "  echo $$ > $d/sleep.pid.tmp; mv $d/sleep.pid.tmp $d/sleep.pid; exec sleep 60; fi\n" +
+                                  "if [ $cmd = feature_extractor ] && [ -e $d/hang ]; then\n" +
+                                  "  echo $$ > $d/sh.pid; sleep 60 & echo $! > $d/sleep.pid.tmp;" +
+                                  " mv $d/sleep.pid.tmp $d/sleep.pid; wait; fi\n");
     const fs::path p = dir_ / "config.yaml";
-    std::ofstream(p) << "back: {colmap_path: " << script.string() << ", workspace_dir: " << (dir_ / "ws").string()
+    std::ofstream(p) << "back: {colmap_path: " << script << ", workspace_dir: " << (dir_ / "ws").string()
                      << ", max_queue_windows: " << max_queue_windows << ", low_priority: false, step_timeout_s: 30"
                      << back_extra << "}\n"
                      << "ipc: {window_slot_bytes: " << ipc_.window_slot_bytes
@@ -83,23 +76,7 @@ class BackIpcTest : public ::testing::Test {
     return p.string();
   }
 
-  ImageWindow MakeWindow(int64_t id, Timestamp t0) const {
-    ImageWindow w;
-    w.id = id;
-    w.camera.width = 64;
-    w.camera.height = 48;
-    w.camera.fx = 50;
-    w.camera.fy = 52;
-    w.camera.cx = 31.5;
-    w.camera.cy = 23.25;
-    for (int i = 0; i < 4; ++i) {
-      WindowFrame f;
-      f.timestamp = t0 + 33333333LL * i + i;  // odd ns: must come back exactly
-      f.image = cv::Mat(48, 64, CV_8UC1, cv::Scalar(20 * i + id));
-      w.frames.push_back(f);
-    }
-    return w;
-  }
+  static ImageWindow MakeWindow(int64_t id, Timestamp t0) { return TinyWindow(id, t0); }
   static std::vector<Timestamp> Stamps(const ImageWindow& w) {
     std::vector<Timestamp> t;
     for (const WindowFrame& f : w.frames) t.push_back(f.timestamp);

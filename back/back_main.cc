@@ -2,7 +2,10 @@
 //   rumi-back --window-dir DIR --config FILE --out DIR [--bench] [--groundtruth FILE]
 // processes one window stored as a folder;
 //   rumi-back --instance ID [--config FILE] --work DIR [--daemon]
-// is the process of `rumi eval run` and rumid (RunBack, back/back_run.h).
+// is the process of `rumi eval run` and rumid (RunBack, back/back_run.h);
+//   rumi-back --remote --instance ID [--config FILE] [--name NAME]
+// is a worker on another host for a rumi-back with back.mode remote or both
+// (back/remote/, docs/back.md).
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
@@ -12,6 +15,8 @@
 #include "back/back_result_io.h"
 #include "back/back_run.h"
 #include "back/back_submap_builder.h"
+#include "back/remote/remote_dispatcher.h"
+#include "back/remote/remote_worker.h"
 #include "back/window_dir.h"
 #include "common/atomic_file.h"
 #include "common/geometry.h"
@@ -46,7 +51,8 @@ int main(int argc, char** argv) {
   std::string window_dir, config_path, out_dir, gt_path, log_level, instance, work_dir;
   double wait_for_producer_s = -1, wait_for_consumer_s = -1;
   int64_t first_submap_id = 0;
-  bool bench = false, keep = false, daemon = false;
+  bool bench = false, keep = false, daemon = false, remote = false;
+  std::string worker_name;
   WindowDirOptions wd;
   app.add_option("--window-dir", window_dir, "folder with rgb.txt-style index and images");
   app.add_option("--config", config_path, "rumi config (every section is checked; camera: for file mode)")
@@ -62,6 +68,9 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--daemon", daemon,
                "rumid: spool windows in --work until built, wait for a restarted front, leave the channel");
+  app.add_flag("--remote", remote,
+               "a remote back worker: build the windows the rumi-back of --instance offers over DDS (dds: section)");
+  app.add_option("--name", worker_name, "with --remote: the worker's name on the wire (default <host>-<pid>)");
   app.add_flag("--bench", bench, "print the time split per COLMAP step");
   app.add_option("--groundtruth", gt_path, "TUM ground truth: print ATE (Sim3) per submap");
   app.add_option("--first", wd.first, "first listed frame used")->check(CLI::NonNegativeNumber);
@@ -79,6 +88,19 @@ int main(int argc, char** argv) {
   if (wait_for_producer_s >= 0) options.wait_for_producer_s = wait_for_producer_s;
   if (wait_for_consumer_s >= 0) options.wait_for_consumer_s = wait_for_consumer_s;
 
+  if (remote) {
+    if (instance.empty()) {
+      spdlog::error("--remote needs --instance ID (the dispatching rumi-back's instance)");
+      return kExitBadInput;
+    }
+    RemoteWorkerOptions wo;
+    wo.dds = setup.config().dds;
+    wo.instance = instance;
+    wo.back = options;
+    wo.name = worker_name;
+    if (options.low_priority) spdlog::info("priority: {}", LowerOwnPriority());
+    return RunRemoteWorker(wo, setup.stop());
+  }
   if (!instance.empty()) {
     BackRunOptions run;
     run.back = options;
@@ -98,6 +120,15 @@ int main(int argc, char** argv) {
     if (work_dir.empty()) {
       spdlog::error("--instance needs --work DIR (for back_stats.json)");
       return kExitBadInput;
+    }
+    std::unique_ptr<RemoteDispatcher> dispatcher;
+    if (options.mode != "local") {
+      dispatcher = RemoteDispatcher::Create(setup.config().dds, instance, options, &why);
+      if (!dispatcher) {
+        spdlog::error("back.mode {}: {}", options.mode, why);
+        return kExitError;
+      }
+      run.remote = dispatcher.get();
     }
     if (options.low_priority) spdlog::info("priority: {}", LowerOwnPriority());
     return RunBack(run, setup.stop());

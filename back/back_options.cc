@@ -52,6 +52,12 @@ const OptionSpec<BackOptions>& BackOptions::Spec() {
     s->Number("retry_below_registered", &O::retry_below_registered, AtLeast(0.0), AtMost(1.0),
               "retry when the largest model holds less than this share of the window");
     s->Flag("sift_domain_size_pooling", &O::sift_domain_size_pooling, "DSP-SIFT descriptors");
+    s->Choice("mode", &O::mode, {"local", "remote", "both"},
+              "where windows are built: here, on rumi-back --remote workers over DDS, or remote with a local fallback");
+    s->Number("remote_claim_timeout_s", &O::remote_claim_timeout_s, Above(0.0), AtMost(3600.0),
+              "mode both: built here when no worker claims a window within this long");
+    s->Number("remote_lease_s", &O::remote_lease_s, Above(0.0), AtMost(86400.0),
+              "a worker silent this long is taken for dead and its window offered again");
     s->Rule("orb_features must be 0 (off) or in [50, 20000]",
             [](const O& o) { return o.orb_features == 0 || o.orb_features >= 50; });
     return s;

@@ -73,6 +73,17 @@ struct BackOptions {
   // window (lost frames 0.016-0.023 -> 0.011 m), not end to end (docs/back.md).
   bool sift_domain_size_pooling = false;
 
+  // Where windows are built (back/remote/, docs/back.md "Remote workers"):
+  // "local" (COLMAP here), "remote" (offered to `rumi-back --remote` workers
+  // over Cyclone DDS, on the `dds:` section's domain and interface; a window
+  // waits until a worker takes it) or "both" (remote, built here when no
+  // worker claims it within remote_claim_timeout_s).
+  std::string mode = "local";
+  double remote_claim_timeout_s = 5.0;
+  // A worker that sends no progress for this long is taken for dead: the
+  // window is offered again (a late result of the old attempt is dropped).
+  double remote_lease_s = 20.0;
+
   static const OptionSpec<BackOptions>& Spec();  // section `back:`
   bool Check(std::string* why = nullptr) const;
   // Resolved workspace root (workspace_dir or the default under $TMPDIR).

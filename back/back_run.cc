@@ -44,6 +44,7 @@ struct WindowRecord {
   std::vector<int64_t> submap_ids;
   std::vector<std::vector<std::string>> submap_stamps;  // per sent submap: its keyframes' timestamps
   BackStepTimes times;
+  BackResult::Remote remote;                 // worker "" = built here
 };
 
 // Shared between the receiver thread (status, liveness) and the worker.
@@ -92,6 +93,12 @@ nlohmann::ordered_json StatsJson(const Counters& c, Shared& sh, const WindowQueu
                    {"matched_pairs", w.matched_pairs},
                    {"filled", w.filled},
                    {"fill_kept", w.fill_kept},
+                   {"built_by", w.remote.worker.empty() ? "local" : w.remote.worker},
+                   {"remote",
+                    {{"bytes_out", w.remote.bytes_out},
+                     {"bytes_in", w.remote.bytes_in},
+                     {"claim_wait_s", w.remote.claim_wait_s},
+                     {"offers", w.remote.offers}}},
                    {"submaps", w.submap_ids},
                    {"submap_timestamps", w.submap_stamps},
                    {"seconds",
@@ -396,10 +403,11 @@ int RunBack(const BackRunOptions& o, const std::atomic<bool>* stop) {
   std::thread reporter(ReportLoop, &sh, &queue, &reporting_done);
   std::thread receiver(ReceiveLoop, std::cref(o), rx.get(), tx.get(), &queue, &spool, &sh, stop);
   BackSubmapBuilder builder(o.back, o.first_submap_id);  // one builder: submap ids stay unique across windows
-  builder.set_stage_callback([&sh](const std::string& stage) {
+  const std::function<void(const std::string&)> stage = [&sh](const std::string& s) {
     std::lock_guard<std::mutex> l(sh.mutex);
-    sh.stage = stage;
-  });
+    sh.stage = s;
+  };
+  builder.set_stage_callback(stage);
   bool stats_ok = true, interrupted = false;
   for (;;) {
     if (sh.abort.load()) {
@@ -425,7 +433,15 @@ int RunBack(const BackRunOptions& o, const std::atomic<bool>* stop) {
     // built again after a restart replaces its earlier submaps in the map.
     if (spool.enabled()) builder.set_next_submap_id(w.id * kSubmapsPerWindow);
     const Timestamp started = WallNowNs();
-    const BackResult r = builder.Build(w, &sh.abort);
+    BackResult r;
+    if (o.remote && o.remote->Build(w, builder.next_submap_id(), &sh.abort, stage, &r)) {
+      // Remote ids follow on from the builder's: the next window's stay unique.
+      for (const Submap& s : r.submaps) builder.set_next_submap_id(std::max(builder.next_submap_id(), s.id + 1));
+    } else {
+      const BackResult::Remote tried = r.remote;  // mode both: offered, nobody claimed it
+      r = builder.Build(w, &sh.abort);
+      r.remote = tried;
+    }
     WindowRecord rec;
     rec.started = started;
     rec.finished = WallNowNs();
@@ -442,6 +458,7 @@ int RunBack(const BackRunOptions& o, const std::atomic<bool>* stop) {
     rec.filled = r.filled;
     rec.fill_kept = r.fill_kept;
     rec.times = r.times;
+    rec.remote = r.remote;
     c.seconds += r.times.total_s;
     // The builder logs the outcome and warnings; a failure sends nothing.
     if (!r.ok() && r.status != BackStatus::kCancelled)

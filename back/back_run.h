@@ -3,12 +3,26 @@
 // windows from the instance's window channel, back submaps to the manager.
 // rumi-back's main, `rumi eval run` and rumid all run it through RunBack.
 #include <atomic>
+#include <functional>
 #include <string>
 
 #include "back/back_options.h"
+#include "back/back_submap_builder.h"
 #include "ipc/channels.h"
 
 namespace rumi {
+
+// Builds a window somewhere else: back/remote's DDS dispatcher (back.mode
+// remote or both). Returns false when nobody took the window and it is to be
+// built here (mode both; result->remote still says what the offer cost);
+// true with the result otherwise (a cancel gives a kCancelled result). The
+// submaps are numbered from first_submap_id.
+class RemoteWindowBuilder {
+ public:
+  virtual ~RemoteWindowBuilder() = default;
+  virtual bool Build(const ImageWindow& w, int64_t first_submap_id, const std::atomic<bool>* cancel,
+                     const std::function<void(const std::string&)>& stage, BackResult* result) = 0;
+};
 
 struct BackRunOptions {
   BackOptions back;                 // also the run loop's waits (back.wait_for_*)
@@ -28,6 +42,7 @@ struct BackRunOptions {
   // (SIGUSR1: the source ended); before, a closed channel may be a front
   // that is being restarted. nullptr (`rumi eval run`): a closed channel ends it.
   const std::atomic<bool>* finish = nullptr;
+  RemoteWindowBuilder* remote = nullptr;  // back.mode remote/both (rumi-back's main makes it)
 };
 
 // Runs until the window producer has closed its channel (or, with

@@ -56,6 +56,15 @@ struct BackResult {
   bool retry_kept = false;             // ... and its model was larger
   bool filled = false;                 // matcher pairs fell short: the other pairs matched too
   bool fill_kept = false;              // ... and that model was larger
+  // Filled by the remote dispatcher (back/remote/), not encoded: who built
+  // it ("" = here), the bytes on the wire, the wait for a worker to claim
+  // it, and how many times it was offered.
+  struct Remote {
+    std::string worker;
+    uint64_t bytes_out = 0, bytes_in = 0;
+    double claim_wait_s = 0;
+    int offers = 0;
+  } remote;
   bool ok() const { return status == BackStatus::kOk; }
 };
 
@@ -71,6 +80,7 @@ class BackSubmapBuilder {
   const BackOptions& options() const { return options_; }
   // The next submap gets this id (then +1 per submap).
   void set_next_submap_id(int64_t id) { next_submap_id_ = id; }
+  int64_t next_submap_id() const { return next_submap_id_; }
   // Called with the COLMAP step about to run ("feature_extractor", ...).
   void set_stage_callback(std::function<void(const std::string&)> f) { on_stage_ = std::move(f); }
 

@@ -1,17 +1,23 @@
 #pragma once
-// Test helper: writes a minimal COLMAP binary model (one PINHOLE camera,
-// images named by timestamp, one 3D point seen by every image at COLMAP pixel
-// `px`), as a fake `colmap mapper` would leave it.
+// Test helpers for the back's process tests: a minimal COLMAP binary model
+// as a fake `colmap mapper` would leave it, the fake `colmap` that leaves
+// it, and a tiny window.
+#include <sys/stat.h>
+
 #include <filesystem>
 #include <fstream>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
 #include "common/camera.h"
 #include "common/timestamp.h"
+#include "common/window.h"
 
 namespace rumi {
 
+// Writes a model of one PINHOLE camera, images named by timestamp and one
+// 3D point seen by every image at COLMAP pixel `px`.
 inline void WriteCannedModel(const std::filesystem::path& dir, const PinholeCameraOptions& c,
                              const std::vector<Timestamp>& stamps, double px_x = 100.5, double px_y = 50.5) {
   std::filesystem::create_directories(dir);
@@ -52,6 +58,43 @@ inline void WriteCannedModel(const std::filesystem::path& dir, const PinholeCame
       put(o, uint32_t{0});
     }
   }
+}
+
+// Writes <dir>/colmap.sh, a fake `colmap`: its mapper copies
+// <dir>/canned/<stem of the first image>/ (a WriteCannedModel, if any) into
+// the output. `feature_extractor_sh` is shell run first in every call (its
+// step is in $cmd, <dir> in $d): a test makes the extraction hang or slow.
+inline std::string WriteFakeColmap(const std::filesystem::path& dir, const std::string& feature_extractor_sh = "") {
+  const std::filesystem::path script = dir / "colmap.sh";
+  std::ofstream(script) << "#!/bin/sh\ncmd=$1\nout=''\nimg=''\nwhile [ $# -gt 0 ]; do\n"
+                        << "  if [ \"$1\" = --output_path ]; then out=$2; fi\n"
+                        << "  if [ \"$1\" = --image_path ]; then img=$2; fi\n  shift\ndone\n"
+                        << "d=" << dir.string() << "\n"
+                        << feature_extractor_sh
+                        << "if [ $cmd = mapper ]; then first=$(ls $img | head -n 1);"
+                        << " m=$d/canned/${first%.png}; if [ -d $m ]; then cp -r $m/* $out/; fi; fi\n";
+  ::chmod(script.c_str(), 0755);
+  return script.string();
+}
+
+// A 64x48 window of 4 flat frames (grey 20 i + id), 33.3 ms apart from t0
+// plus i ns (odd stamps must come back exactly).
+inline ImageWindow TinyWindow(int64_t id, Timestamp t0) {
+  ImageWindow w;
+  w.id = id;
+  w.camera.width = 64;
+  w.camera.height = 48;
+  w.camera.fx = 50;
+  w.camera.fy = 52;
+  w.camera.cx = 31.5;
+  w.camera.cy = 23.25;
+  for (int i = 0; i < 4; ++i) {
+    WindowFrame f;
+    f.timestamp = t0 + 33333333LL * i + i;
+    f.image = cv::Mat(48, 64, CV_8UC1, cv::Scalar(20 * i + id));
+    w.frames.push_back(f);
+  }
+  return w;
 }
 
 }  // namespace rumi

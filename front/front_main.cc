@@ -248,7 +248,14 @@ int Main(int argc, char** argv) {
   }
   if (!out_dir.empty()) {
     std::filesystem::create_directories(out_dir);
-    if (largest) WriteTumTrajectory(out_dir + "/trajectory.txt", TrackedPoses(*largest));
+    if (largest) {
+      WriteTumTrajectory(out_dir + "/trajectory.txt", TrackedPoses(*largest));
+      // The largest submap's keyframes at their final (BA) poses: where a
+      // drift comes from, tracking or mapping.
+      Trajectory kfs;
+      for (const Keyframe& kf : largest->keyframes) kfs.push_back({kf.timestamp, kf.T_wc()});
+      WriteTumTrajectory(out_dir + "/keyframes.txt", kfs);
+    }
     {
       std::ofstream f(out_dir + "/submaps_trajectory.txt");
       f << "# submap_id timestamp tx ty tz qx qy qz qw (camera->submap world)\n";
@@ -270,7 +277,7 @@ int Main(int argc, char** argv) {
           << tim[i].extract_ms << " " << tim[i].track_ms << " " << tim[i].total_ms << " " << tim[i].cpu_ms << " " << tim[i].keypoints << " "
           << tim[i].inliers << "\n";
     }
-    std::cout << "wrote " << out_dir << "/{trajectory.txt,submaps_trajectory.txt,frames.txt}\n";
+    std::cout << "wrote " << out_dir << "/{trajectory.txt,keyframes.txt,submaps_trajectory.txt,frames.txt}\n";
   }
   return 0;
 }

@@ -12,7 +12,7 @@ PACKAGES=(
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libsystemd-dev
   cyclonedds-dev cyclonedds-tools colmap
   libgtest-dev libgmock-dev libbenchmark-dev
-  systemd util-linux
+  systemd util-linux iproute2
   clang libclang-rt-14-dev
 )
 
