@@ -36,6 +36,10 @@ const OptionSpec<CalibrationOptions>& CalibrationOptions::Spec() {
     s->Number("min_tilt_deg", &O::min_tilt_deg, AtLeast(0.0), Below(90.0),
               "a tilted board's angle to the image plane, degrees");
     s->Number("k3_min_views", &O::k3_min_views, AtLeast(0), Unbounded<int>(), "fit k3 from this many views on");
+    s->Number("steady_px", &O::steady_px, Above(0.0), Unbounded<double>(),
+              "stream: a board moving more than this since the previous frame (mean corner, px) is skipped");
+    s->Number("min_move", &O::min_move, AtLeast(0.0), AtMost(1.0),
+              "stream: a new view's corners lie this far (of the image diagonal) from every kept view's");
     return s;
   }();
   return *spec;
@@ -347,6 +351,65 @@ std::vector<CalibrationImage> ReadCalibrationImages(const std::string& dir) {
   for (const fs::path& f : files)
     images.push_back({f.filename().string(), cv::imread(f.string(), cv::IMREAD_GRAYSCALE)});
   return images;
+}
+
+namespace {
+double MeanCornerDistance(const std::vector<cv::Point2f>& a, const std::vector<cv::Point2f>& b) {
+  double sum = 0;
+  for (size_t i = 0; i < a.size(); ++i) sum += cv::norm(a[i] - b[i]);
+  return a.empty() ? 0 : sum / static_cast<double>(a.size());
+}
+}  // namespace
+
+CalibrationViewPicker::CalibrationViewPicker(const CalibrationOptions& options) : o_(options) {
+  std::string why;
+  if (!o_.Check(&why)) throw std::invalid_argument("calibration options: " + why);
+}
+
+CalibrationViewPicker::Verdict CalibrationViewPicker::Offer(const cv::Mat& grey, const std::string& name) {
+  if (grey.empty() || grey.type() != CV_8UC1) return Verdict::kUnreadable;
+  if (size_.empty()) size_ = grey.size();
+  if (grey.size() != size_) return Verdict::kOtherSize;
+  std::vector<cv::Point2f> corners;
+  if (!FindBoardCorners(grey, cv::Size(o_.board_cols, o_.board_rows), &corners)) {
+    previous_.clear();
+    return Verdict::kNoBoard;
+  }
+  // The detector may number a board from either end: compare against the
+  // previous frame as found, a moved board shows as motion either way.
+  const bool steady = previous_.size() == corners.size() && MeanCornerDistance(corners, previous_) <= o_.steady_px;
+  previous_ = corners;
+  if (!steady) return Verdict::kMoving;
+  const double diagonal = std::hypot(size_.width, size_.height);
+  for (const auto& kept : corners_) {
+    std::vector<cv::Point2f> reversed(kept.rbegin(), kept.rend());
+    if (std::min(MeanCornerDistance(corners, kept), MeanCornerDistance(corners, reversed)) < o_.min_move * diagonal)
+      return Verdict::kSeen;
+  }
+  views_.push_back({name, grey.clone()});
+  corners_.push_back(std::move(corners));
+  return Verdict::kKept;
+}
+
+double CalibrationViewPicker::Coverage(std::vector<std::string>* empty_regions) const {
+  std::vector<const std::vector<cv::Point2f>*> v;
+  for (const auto& c : corners_) v.push_back(&c);
+  std::vector<std::string> empty;
+  const double c = rumi::Coverage(v, size_.width, size_.height, &empty);
+  if (empty_regions) *empty_regions = std::move(empty);
+  return c;
+}
+
+const char* ToString(CalibrationViewPicker::Verdict v) {
+  switch (v) {
+    case CalibrationViewPicker::Verdict::kKept: return "kept";
+    case CalibrationViewPicker::Verdict::kNoBoard: return "no whole board";
+    case CalibrationViewPicker::Verdict::kMoving: return "board moving";
+    case CalibrationViewPicker::Verdict::kSeen: return "too close to a kept view";
+    case CalibrationViewPicker::Verdict::kOtherSize: return "another image size";
+    case CalibrationViewPicker::Verdict::kUnreadable: return "unreadable";
+  }
+  return "?";
 }
 
 std::string CalibrationConfigYaml(const CalibrationResult& r, const CalibrationOptions& o) {

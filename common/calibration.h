@@ -35,6 +35,12 @@ struct CalibrationOptions {
   int min_tilted_views = 3;
   double min_tilt_deg = 15;
   int k3_min_views = 20;        // k3 fitted from this many views on, else fixed to 0 (overfits on few views)
+  // Views picked from a stream (CalibrationViewPicker): the board must hold
+  // still (mean corner motion since the previous frame <= steady_px: no
+  // motion blur) and be somewhere new (mean corner distance to every kept
+  // view >= min_move of the image diagonal).
+  double steady_px = 1.5;
+  double min_move = 0.05;
   static const OptionSpec<CalibrationOptions>& Spec();
   bool Check(std::string* why = nullptr) const;
 };
@@ -86,6 +92,28 @@ CalibrationResult CalibrateCamera(const std::vector<CalibrationImage>& images, c
 // back with an empty image. Throws std::runtime_error when the folder is
 // missing or holds no image file.
 std::vector<CalibrationImage> ReadCalibrationImages(const std::string& dir);
+
+// Picks calibration views from a stream of frames (`rumi calibrate --link`):
+// a frame becomes a view when the whole board is found, holds still and is
+// somewhere new (CalibrationOptions::steady_px, min_move). Every frame must
+// have the first one's size.
+class CalibrationViewPicker {
+ public:
+  enum class Verdict { kKept, kNoBoard, kMoving, kSeen, kOtherSize, kUnreadable };
+  explicit CalibrationViewPicker(const CalibrationOptions& options);
+  Verdict Offer(const cv::Mat& grey, const std::string& name);
+  const std::vector<CalibrationImage>& views() const { return views_; }
+  // Of the kept views, as CalibrationResult::coverage and empty_regions.
+  double Coverage(std::vector<std::string>* empty_regions) const;
+
+ private:
+  CalibrationOptions o_;
+  cv::Size size_;
+  std::vector<cv::Point2f> previous_;  // the last frame's corners (empty: no board)
+  std::vector<CalibrationImage> views_;
+  std::vector<std::vector<cv::Point2f>> corners_;  // per kept view
+};
+const char* ToString(CalibrationViewPicker::Verdict v);
 
 // A rumi config holding the `camera:` section, with the fit's figures as
 // comments (the config reader is strict: no extra keys).

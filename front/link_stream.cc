@@ -2,12 +2,11 @@
 
 #include <spdlog/spdlog.h>
 
-#include <opencv2/imgcodecs.hpp>
-
 #include <chrono>
 #include <mutex>
 
 #include "ipc/link/link_endpoint.h"
+#include "ipc/link/link_frame_image.h"
 
 namespace rumi {
 namespace {
@@ -66,17 +65,7 @@ class LinkStream : public FrameStream {
         }
         continue;
       }
-      cv::Mat grey;
-      if (f.frame.format == RL_FORMAT_JPEG) {
-        try {
-          grey = cv::imdecode(f.frame.data, cv::IMREAD_GRAYSCALE);
-        } catch (const cv::Exception&) {
-          grey.release();
-        }
-      } else if (f.frame.format == RL_FORMAT_GREY &&
-                 f.frame.data.size() == static_cast<size_t>(f.frame.width) * f.frame.height) {
-        grey = cv::Mat(f.frame.height, f.frame.width, CV_8U, f.frame.data.data()).clone();
-      }
+      const cv::Mat grey = DecodeLinkFrame(f.frame);
       if (grey.empty()) {
         if (unreadable_++ % 100 == 0)
           spdlog::warn("source: link frame {} does not decode ({} so far)", f.frame.frame_id, unreadable_);

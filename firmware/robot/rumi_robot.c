@@ -50,6 +50,10 @@ void rr_init(rr_robot* r, const rr_hw* hw, const rr_config* cfg) {
   r->gait = r->cfg.gait;
   r->halted = r->cfg.start_halted;
   r->start_us = r->last_heard_us = r->last_heartbeat_us = now(r);
+  /* A robot that has not yet heard the ground station stands: nobody watches
+   * its camera, and a station that comes up late must not find it walked off
+   * (nor count that as a fail-safe stop). The first datagram heard lets it walk. */
+  r->failsafe = 1;
   r->moving = -1; /* unknown: the first update tells the servos */
   update_motion(r);
 }
@@ -134,6 +138,10 @@ static void send_heartbeat(rr_robot* r, uint64_t t) {
   m.u.heartbeat.fragments_resent = r->stats.fragments_resent;
   m.u.heartbeat.imu_samples = r->stats.imu_samples;
   m.u.heartbeat.uptime_ms = (uint32_t)((t - r->start_us) / 1000u);
+  if (r->hw.rssi_dbm) {
+    int rssi = r->hw.rssi_dbm(r->hw.ctx);
+    m.u.heartbeat.rssi = (int8_t)(rssi < -128 ? -128 : rssi > 127 ? 127 : rssi);
+  }
   send_message(r, &m);
   r->last_heartbeat_us = t;
 }

@@ -1,8 +1,9 @@
 /* The robot's side of the link, without hardware: fragmenting frames and
  * keeping the last few for retransmission on NACK, batching IMU samples,
  * obeying halt/resume and the camera settings with acknowledgements,
- * answering clock-sync requests, heartbeats, and the fail-safe (a robot that
- * hears nothing from the ground station for failsafe_ms stops walking).
+ * answering clock-sync requests, heartbeats, and the fail-safe (a robot stands
+ * until it first hears the ground station, and stops walking when it hears
+ * nothing for failsafe_ms).
  *
  * The hardware is behind rr_hw (a datagram sender, a clock, the servos, the
  * camera settings), so the same code runs in the ESP32-CAM firmware
@@ -39,6 +40,8 @@ typedef struct rr_hw {
   void (*set_motion)(void* ctx, int moving, int gait);
   /* Camera settings; 0 if applied. NULL: camera commands are unsupported. */
   int (*set_camera)(void* ctx, int width, int height, int quality, int fps_milli);
+  /* Wi-Fi signal strength, dBm (0: unknown); sent in every heartbeat. NULL: unknown. */
+  int (*rssi_dbm)(void* ctx);
 } rr_hw;
 
 typedef struct rr_config {
@@ -88,7 +91,7 @@ typedef struct rr_robot {
   rl_imu_sample imu[RL_IMU_MAX_SAMPLES];
   uint16_t imu_count;
   int halted;           /* commanded by the ground station */
-  int failsafe;         /* stopped: nothing heard for failsafe_ms */
+  int failsafe;         /* stopped: nothing heard yet, or nothing for failsafe_ms */
   int moving;           /* what the servos were last told */
   int gait;
   int width, height, quality, fps_milli;  /* camera settings (0: unset) */

@@ -26,7 +26,9 @@ struct FakeHw {
     ++h->camera_calls;
     return h->camera_fails ? -1 : 0;
   }
-  rr_hw Hw() { return {this, Send, Now, Motion, Camera}; }
+  static int Rssi(void* c) { return static_cast<FakeHw*>(c)->rssi; }
+  int rssi = -61;
+  rr_hw Hw() { return {this, Send, Now, Motion, Camera, Rssi}; }
 
   std::vector<rl_message> Parsed(int type) const {
     std::vector<rl_message> out;
@@ -48,6 +50,13 @@ class RobotTest : public ::testing::Test {
     c.robot_id = 5;
     rr_hw hw = hw_.Hw();
     rr_init(robot_.get(), &hw, &c);
+    Receive(GroundHeartbeat());  // the station is there: the robot walks
+  }
+  static rl_message GroundHeartbeat(int halted = 0) {
+    rl_message hb = Msg(RL_HEARTBEAT);
+    hb.u.heartbeat.role = RL_ROLE_GROUND;
+    hb.u.heartbeat.halted = static_cast<uint8_t>(halted);
+    return hb;
   }
   // A datagram from the ground station.
   void Receive(rl_message m) {
@@ -125,8 +134,49 @@ TEST_F(RobotTest, TooLargeFramesAreSkippedAndCounted) {
   EXPECT_TRUE(hw_.sent.empty());
 }
 
+TEST_F(RobotTest, ARobotStandsUntilItFirstHearsTheGroundStation) {
+  FakeHw hw;
+  rr_robot robot;
+  rr_config c;
+  rr_config_default(&c);
+  c.robot_id = 5;
+  const rr_hw h = hw.Hw();
+  rr_init(&robot, &h, &c);
+  ASSERT_FALSE(hw.motion.empty());
+  EXPECT_EQ(hw.motion.back().first, 0);
+  EXPECT_FALSE(rr_moving(&robot));
+  // Nobody there for 5 s: still standing, and that is no fail-safe stop.
+  for (int i = 0; i < 50; ++i) {
+    hw.now += 100000;
+    rr_poll(&robot);
+  }
+  EXPECT_FALSE(rr_moving(&robot));
+  EXPECT_EQ(robot.stats.failsafe_stops, 0u);
+  // Its heartbeats say why it stands.
+  hw.sent.clear();
+  hw.now += 500000;
+  rr_poll(&robot);
+  auto hbs = hw.Parsed(RL_HEARTBEAT);
+  ASSERT_EQ(hbs.size(), 1u);
+  EXPECT_EQ(hbs[0].u.heartbeat.failsafe, 1);
+  EXPECT_EQ(hbs[0].u.heartbeat.rssi, -61);  // and how well it hears the access point
+  hw.rssi = -300;                           // a driver's nonsense is clamped
+  hw.now += 500000;
+  rr_poll(&robot);
+  EXPECT_EQ(hw.Parsed(RL_HEARTBEAT).back().u.heartbeat.rssi, -128);
+  // The station comes up: the robot walks.
+  rl_message hb = GroundHeartbeat();
+  hb.h.robot_id = 5;
+  uint8_t buf[RL_MAX_DATAGRAM];
+  const size_t n = rl_encode(&hb, buf, sizeof(buf));
+  ASSERT_GT(n, 0u);
+  rr_on_datagram(&robot, buf, n);
+  EXPECT_TRUE(rr_moving(&robot));
+  EXPECT_EQ(hw.motion.back().first, 1);
+}
+
 TEST_F(RobotTest, HaltResumeAreAckedAppliedOnceAndMoveTheServos) {
-  ASSERT_EQ(hw_.motion.back().first, 1);  // walks from the start
+  ASSERT_EQ(hw_.motion.back().first, 1);  // walks once the station is heard
   Receive(Control(1, RL_CMD_HALT));
   EXPECT_FALSE(rr_moving(robot_.get()));
   EXPECT_EQ(hw_.motion.back().first, 0);
@@ -147,9 +197,7 @@ TEST_F(RobotTest, HaltResumeAreAckedAppliedOnceAndMoveTheServos) {
 }
 
 TEST_F(RobotTest, AStaleHeartbeatDoesNotUndoAHalt) {
-  rl_message hb = Msg(RL_HEARTBEAT);
-  hb.u.heartbeat.role = RL_ROLE_GROUND;
-  hb.u.heartbeat.halted = 0;
+  rl_message hb = GroundHeartbeat();
   // Sent before the halt (lower sequence number) but delivered after it.
   ground_seq_ = 200;
   Receive(Control(3, RL_CMD_HALT));
@@ -183,9 +231,7 @@ TEST_F(RobotTest, FailsafeStopsARobotThatHearsNothing) {
   EXPECT_EQ(hbs.back().u.heartbeat.failsafe, 1);
   // The ground station is back (a restarted one: sequence numbers from 0).
   ground_seq_ = 0;
-  rl_message hb = Msg(RL_HEARTBEAT);
-  hb.u.heartbeat.role = RL_ROLE_GROUND;
-  Receive(hb);
+  Receive(GroundHeartbeat());
   EXPECT_TRUE(rr_moving(robot_.get()));
   Receive(Control(1, RL_CMD_HALT));  // its first control id: applied
   EXPECT_FALSE(rr_moving(robot_.get()));

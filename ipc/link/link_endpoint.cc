@@ -163,6 +163,10 @@ void LinkEndpoint::Run() {
             std::memcpy(robot_addr_, &from, flen);
             robot_addr_len_ = flen;
             have_robot_addr_ = true;
+            {
+              std::lock_guard<std::mutex> l(mu_);
+              last_heartbeat_us_ = 0;  // greet it now: a robot stands until it hears the station
+            }
             char host[64] = "?";
             inet_ntop(AF_INET, &reinterpret_cast<sockaddr_in*>(&from)->sin_addr, host, sizeof(host));
             spdlog::info("link: robot {} at {}:{}", o_.robot_id, host,

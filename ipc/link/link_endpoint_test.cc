@@ -88,10 +88,12 @@ TEST(LinkEndpoint, HaltResumeAreAcknowledgedThroughLoss) {
   SimRobot robot(Robot(ground.port(), 0.3, 20, 10));
   // The ground station learns the robot's address from its heartbeat.
   ASSERT_TRUE(WaitFor([&] { return ground.stats().robot_heard; }, 5s));
-  ASSERT_TRUE(robot.moving());
+  // The robot stands until it hears the station, then walks.
+  ASSERT_TRUE(WaitFor([&] { return robot.moving(); }, 5s));
   ground.SetHalt(true);
   ASSERT_TRUE(WaitFor([&] { return !robot.moving() && ground.HaltAcknowledged(); }, 10s));
   EXPECT_TRUE(WaitFor([&] { return ground.stats().robot_halted; }, 5s));
+  EXPECT_EQ(ground.stats().robot_rssi, -55);  // the robot's heartbeat says how well it hears Wi-Fi
   ground.SetHalt(false);
   ASSERT_TRUE(WaitFor([&] { return robot.moving() && ground.HaltAcknowledged(); }, 10s));
   EXPECT_GE(ground.stats().controls_acked, 2u);
@@ -141,8 +143,10 @@ TEST(LinkEndpoint, TheRobotStopsWhenTheGroundStationGoesAway) {
     holder = std::make_unique<SimRobot>(ro);
     robot = holder.get();
     ASSERT_TRUE(WaitFor([&] { return ground.stats().robot_heard; }, 5s));
+    ASSERT_TRUE(WaitFor([&] { return robot->moving(); }, 5s));
     std::this_thread::sleep_for(600ms);  // heartbeats keep it walking
     EXPECT_TRUE(robot->moving());
+    EXPECT_EQ(robot->stats().failsafe_stops, 0u);
   }
   EXPECT_TRUE(WaitFor([&] { return !robot->moving(); }, 3s));
   EXPECT_GE(robot->stats().failsafe_stops, 1u);

@@ -68,7 +68,7 @@ SimRobot::SimRobot(const SimRobotOptions& o)
   getsockname(fd_, reinterpret_cast<sockaddr*>(&b), &bl);
   port_ = ntohs(b.sin_port);
   start_ground_us_ = LinkNowUs();
-  rr_hw hw{this, HwSend, HwNow, HwMotion, HwCamera};
+  rr_hw hw{this, HwSend, HwNow, HwMotion, HwCamera, HwRssi};
   rr_config c;
   rr_config_default(&c);
   c.robot_id = static_cast<uint16_t>(o_.robot_id);
@@ -109,6 +109,7 @@ void SimRobot::HwMotion(void* ctx, int moving, int) {
   s->motion_.push_back({LinkNowUs(), moving != 0});
 }
 int SimRobot::HwCamera(void*, int, int, int, int) { return 0; }
+int SimRobot::HwRssi(void* ctx) { return static_cast<SimRobot*>(ctx)->o_.rssi_dbm; }
 
 int64_t SimRobot::SendFrame(const std::vector<uint8_t>& bytes, int width, int height, uint8_t format,
                             uint8_t quality) {

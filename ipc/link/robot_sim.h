@@ -49,6 +49,7 @@ struct SimRobotOptions {
   double clock_offset_ms = 0;             // robot clock minus ground clock at start
   double drift_ppm = 0;                   // robot clock runs fast by this much
   double failsafe_ms = 2000;
+  int rssi_dbm = -55;                     // what its heartbeats report (0: unknown)
   uint64_t seed = 1;
 };
 
@@ -75,6 +76,7 @@ class SimRobot {
   static uint64_t HwNow(void* ctx);
   static void HwMotion(void* ctx, int moving, int gait);
   static int HwCamera(void* ctx, int w, int h, int q, int f);
+  static int HwRssi(void* ctx);
   void Run();
 
   SimRobotOptions o_;

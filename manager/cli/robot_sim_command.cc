@@ -46,7 +46,7 @@ struct Args {
   int robot_id = 1, quality = 90, max_frames = 0;
   double loss = 0, burst = 1, latency_ms = 0, jitter_ms = 0, bandwidth_kbps = 0;
   double down_loss = -1;
-  double clock_offset_ms = 0, drift_ppm = 0, rate = 1.0, imu_hz = 100, linger_s = 2.0;
+  double clock_offset_ms = 0, drift_ppm = 0, rate = 1.0, imu_hz = 100, linger_s = 2.0, wait_s = 120;
   uint64_t seed = 1;
 };
 
@@ -134,9 +134,11 @@ void Run(const Args& a) {
     return true;
   };
   int sent = 0, sent_halted = 0, halts = 0, too_large = 0;
-  int64_t play_ns = 0, halted_ns = 0, last_tick = SteadyNs(), next_imu = 0, last_send = 0;
+  int64_t play_ns = 0, halted_ns = 0, waited_ns = 0, last_tick = SteadyNs(), next_imu = 0, last_send = 0;
   Timestamp t0 = -1;
-  bool moving = true, more = true;
+  // The robot stands until it first hears the ground station (rumi_robot.h):
+  // that wait is neither a halt nor part of the sequence.
+  bool moving = false, heard = false, more = true;
   Shot next, current;
   size_t bytes_sent = 0;
   auto load = [&] {
@@ -165,6 +167,15 @@ void Run(const Args& a) {
   // the robot walks.
   auto watch = [&](int64_t now) {
     const bool m = robot->moving();
+    if (!heard) {
+      waited_ns += now - last_tick;
+      last_tick = now;
+      if (!m) return;
+      heard = moving = true;
+      std::cout << fmt::format("robot-sim: heard the ground station after {:.2f} s; walking\n", waited_ns * 1e-9);
+      std::cout.flush();
+      return;
+    }
     if (m != moving) {
       halts += !m;
       std::cout << fmt::format("robot-sim: {} at {:.2f} s of the sequence\n", m ? "resumed" : "halted",
@@ -180,6 +191,12 @@ void Run(const Args& a) {
     if (a.max_frames > 0 && sent >= a.max_frames) break;
     const int64_t now = SteadyNs();
     watch(now);
+    if (!heard) {  // nothing to stream to yet (its heartbeats go out meanwhile)
+      if (a.wait_s > 0 && waited_ns > static_cast<int64_t>(a.wait_s * 1e9))
+        Fail(fmt::format("robot-sim: heard no ground station at {} in {:.0f} s (--wait-s)", a.ground, a.wait_s));
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      continue;
+    }
     const Timestamp data_t = t0 + static_cast<int64_t>(play_ns * a.rate);
     if (imu && now >= next_imu) {
       float acc[3], gyr[3];
@@ -220,6 +237,7 @@ void Run(const Args& a) {
       {"mean_frame_bytes", sent ? static_cast<double>(bytes_sent) / sent : 0.0},
       {"halts", halts},
       {"halted_s", halted_ns * 1e-9},
+      {"waited_for_ground_s", waited_ns * 1e-9},
       {"fragments_sent", rs.fragments_sent},
       {"fragments_resent", rs.fragments_resent},
       {"nacks_too_old", rs.nacks_too_old},
@@ -258,6 +276,8 @@ void RegisterRobotSimCommand(CLI::App* app) {
   cmd->add_option("--quality", a->quality, "JPEG quality 1..100")->check(CLI::Range(1, 100));
   cmd->add_option("--imu-hz", a->imu_hz, "IMU rate from the ground truth (0: none)")->check(CLI::Range(0.0, 2000.0));
   cmd->add_option("--max-frames", a->max_frames, "stop after N frames (0: all)");
+  cmd->add_option("--wait-s", a->wait_s, "give up when no ground station is heard within this long (0: wait forever)")
+      ->check(CLI::Range(0.0, 1e6));
   cmd->add_option("--linger-s", a->linger_s, "stay this long after the last frame (retransmissions)");
   cmd->add_option("--seed", a->seed, "seed of the losses and jitter");
   cmd->add_option("--groundtruth-out", a->groundtruth_out,

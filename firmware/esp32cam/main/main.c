@@ -109,6 +109,11 @@ static void hw_set_motion(void* ctx, int moving, int gait) {
   servo_gait_set(moving, gait);
 }
 
+static int hw_rssi_dbm(void* ctx) {
+  (void)ctx;
+  return wifi_sta_rssi();
+}
+
 /* rr passes its last accepted settings, 0 for one never set: 0 keeps the
  * current value. Checks everything before touching the sensor. */
 static int hw_set_camera(void* ctx, int width, int height, int quality, int fps_milli) {
@@ -386,6 +391,7 @@ void app_main(void) {
       .now_us = hw_now_us,
       .set_motion = hw_set_motion,
       .set_camera = s_cam.ok ? hw_set_camera : NULL, /* NULL: camera commands are acked "unsupported" */
+      .rssi_dbm = hw_rssi_dbm,
   };
   robot_lock();
   rr_init(s_robot, &hw, &cfg);
@@ -410,6 +416,6 @@ void app_main(void) {
   if (err != ESP_OK) fatal("IMU timer", err);
 
   ESP_LOGI(TAG, "robot %d up: %s, %d fps, IMU %d Hz, fail-safe %d ms", CONFIG_RUMI_ROBOT_ID,
-           cfg.start_halted ? "halted until the ground station resumes it" : "walking", CONFIG_RUMI_FPS,
+           cfg.start_halted ? "halted until the ground station resumes it" : "walking once the ground station is heard", CONFIG_RUMI_FPS,
            CONFIG_RUMI_IMU_RATE_HZ, CONFIG_RUMI_FAILSAFE_MS);
 }
