@@ -80,8 +80,10 @@ class RobotLink : public ::testing::Test {
     rumid_ = Spawn({test::BinPath("rumid"), "--config", cfg.string(), "--instance",
                     "rlink" + std::to_string(::getpid() % 100000)},
                    dir_ / "rumid.log");
-    // The robot may start before the ground station listens: it streams
-    // into the void until then, as a robot would.
+    // The robot may start before the ground station listens (a loaded
+    // machine starts rumid's front late): it stands, sends its heartbeats
+    // and waits to be heard, as the firmware does, and that is no fail-safe
+    // stop.
     std::vector<std::string> argv = {test::BinPath("rumi"),
                                      "robot-sim",
                                      seq.string(),

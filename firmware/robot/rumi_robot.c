@@ -239,10 +239,10 @@ void rr_on_datagram(rr_robot* r, const uint8_t* data, size_t len) {
   }
   r->last_heard_us = t2;
   r->heard = 1;
-  if (r->failsafe) {
-    r->failsafe = 0;
-    update_motion(r);
-  }
+  /* Heard: the fail-safe ends, but the servos are told only after this
+   * message is applied (a halt heard first must not twitch the legs). */
+  const int was_failsafe = r->failsafe;
+  r->failsafe = 0;
   switch (in.h.type) {
     case RL_CONTROL:
       on_control(r, &in);
@@ -271,6 +271,7 @@ void rr_on_datagram(rr_robot* r, const uint8_t* data, size_t len) {
     default:
       break; /* robot-bound types only */
   }
+  if (was_failsafe) update_motion(r);
 }
 
 void rr_poll(rr_robot* r) {

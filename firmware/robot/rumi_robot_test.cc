@@ -175,6 +175,28 @@ TEST_F(RobotTest, ARobotStandsUntilItFirstHearsTheGroundStation) {
   EXPECT_EQ(hw.motion.back().first, 1);
 }
 
+TEST_F(RobotTest, AHaltHeardFirstKeepsTheRobotStanding) {
+  FakeHw hw;
+  rr_robot robot;
+  rr_config c;
+  rr_config_default(&c);
+  c.robot_id = 5;
+  const rr_hw h = hw.Hw();
+  rr_init(&robot, &h, &c);
+  // The station's first word is a halt (rumi calibrate --link): the legs
+  // are never told to walk, not even for the length of one message.
+  rl_message halt = Control(1, RL_CMD_HALT);
+  halt.h.robot_id = 5;
+  uint8_t buf[RL_MAX_DATAGRAM];
+  const size_t n = rl_encode(&halt, buf, sizeof(buf));
+  ASSERT_GT(n, 0u);
+  rr_on_datagram(&robot, buf, n);
+  EXPECT_FALSE(rr_moving(&robot));
+  EXPECT_EQ(robot.failsafe, 0);
+  for (const auto& m : hw.motion) EXPECT_EQ(m.first, 0);
+  EXPECT_EQ(hw.Parsed(RL_ACK).size(), 1u);
+}
+
 TEST_F(RobotTest, HaltResumeAreAckedAppliedOnceAndMoveTheServos) {
   ASSERT_EQ(hw_.motion.back().first, 1);  // walks once the station is heard
   Receive(Control(1, RL_CMD_HALT));

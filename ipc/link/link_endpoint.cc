@@ -83,6 +83,7 @@ nlohmann::json LinkStats::ToJson() const {
         {"drift_ppm", clock_drift_ppm},
         {"best_round_trip_ms", clock_best_rtt_ms},
         {"round_trips", clock_round_trips}}},
+      {"rate_control", {{"asked_fps", rate_asked_fps}, {"cuts", rate_cuts}, {"raises", rate_raises}}},
   };
 }
 
@@ -90,7 +91,8 @@ LinkEndpoint::LinkEndpoint(const LinkOptions& o)
     : o_(o),
       reassembler_(FrameReassemblerOptions{static_cast<int64_t>(o.frame_deadline_ms * 1000),
                                            static_cast<int64_t>(o.nack_delay_ms * 1000),
-                                           static_cast<int64_t>(o.nack_interval_ms * 1000), 64}) {
+                                           static_cast<int64_t>(o.nack_interval_ms * 1000), 64}),
+      rate_(o.rate_control, o.frame_deadline_ms) {
   std::string why;
   if (!o_.Check(&why)) throw std::runtime_error("link options: " + why);
   sockaddr_storage addr{};
@@ -291,12 +293,14 @@ void LinkEndpoint::Timers(int64_t now) {
       LinkFrame lost;
       lost.frame_id = id;
       LogFrame(lost, 0, "dropped");
+      rate_.OnFrame(now, false, 0);
     }
     for (LinkFrame& f : done) {
       LinkFrameOut o;
       o.ground_capture_us = clock_.synced() ? clock_.ToGround(static_cast<int64_t>(f.robot_time_us)) : f.first_us;
       const double lat = (f.complete_us - o.ground_capture_us) * 1e-3;
       latencies_ms_.Add(lat);
+      rate_.OnFrame(now, true, lat);
       stats_.latency_max_ms = latencies_ms_.max();
       LogFrame(f, o.ground_capture_us, "complete");
       o.frame = std::move(f);
@@ -307,6 +311,15 @@ void LinkEndpoint::Timers(int64_t now) {
       }
     }
     if (!done.empty()) cv_.notify_all();
+    if (const double fps = rate_.Poll(now); fps > 0) {
+      QueueControl(RL_CMD_FRAME_RATE, static_cast<int32_t>(std::lround(fps * 1000)));
+      stats_.rate_asked_fps = fps;
+      stats_.rate_cuts = rate_.cuts();
+      stats_.rate_raises = rate_.raises();
+      spdlog::info("link: asking the robot for {:.1f} fps ({} after {} cuts, {} raises; most seen {:.1f} fps)", fps,
+                   rate_.cuts() + rate_.raises() == 1 ? "first change" : "change", rate_.cuts(), rate_.raises(),
+                   rate_.max_seen_fps());
+    }
     // Controls: resend until acknowledged, then give up loudly.
     for (auto it = controls_.begin(); it != controls_.end();) {
       if (it->last_sent_us && now - it->last_sent_us < o_.control_retry_ms * 1000) {
@@ -385,18 +398,21 @@ std::vector<LinkImuSample> LinkEndpoint::TakeImu() {
 
 void LinkEndpoint::SendControl(uint8_t command, int32_t a0, int32_t a1, int32_t a2) {
   std::lock_guard<std::mutex> l(mu_);
+  QueueControl(command, a0, a1, a2);
+}
+
+void LinkEndpoint::QueueControl(uint8_t command, int32_t a0, int32_t a1, int32_t a2) {
   PendingControl p;
   p.c.command = command;
   p.c.arg[0] = a0, p.c.arg[1] = a1, p.c.arg[2] = a2;
   p.id = next_control_id_++;
   if (p.id == 0) p.id = next_control_id_++;
-  // A newer halt/resume replaces an unacknowledged older one.
-  if (command == RL_CMD_HALT || command == RL_CMD_RESUME)
-    controls_.erase(std::remove_if(controls_.begin(), controls_.end(),
-                                   [](const PendingControl& c) {
-                                     return c.c.command == RL_CMD_HALT || c.c.command == RL_CMD_RESUME;
-                                   }),
-                    controls_.end());
+  // A newer setting replaces an unacknowledged older one of its kind
+  // (halt and resume are one kind).
+  const auto kind = [](uint8_t c) { return c == RL_CMD_RESUME ? uint8_t{RL_CMD_HALT} : c; };
+  controls_.erase(std::remove_if(controls_.begin(), controls_.end(),
+                                 [&](const PendingControl& c) { return kind(c.c.command) == kind(command); }),
+                  controls_.end());
   controls_.push_back(p);
 }
 

@@ -2,8 +2,9 @@
 // The ground station's end of the robot link: a UDP socket and a thread that
 // reassembles frames (FrameReassembler, NACKs), keeps the robot's clock
 // (ClockSync round trips), buffers IMU samples, sends heartbeats and
-// controls (halt/resume with acknowledgement and retries) and counts
-// everything for the status. docs/robot_link.md.
+// controls (halt/resume with acknowledgement and retries; the frame rate the
+// link can carry, RateControl) and counts everything for the status.
+// docs/robot_link.md.
 //
 // Clocks: "ground" is the steady (monotonic) clock in microseconds; every
 // frame and IMU sample is put on it through the clock sync.
@@ -53,6 +54,8 @@ struct LinkStats {
   bool robot_halted = false, robot_failsafe = false;  // as the robot last said
   bool want_halt = false;
   int robot_rssi = 0;
+  double rate_asked_fps = 0;          // the frame rate asked of the robot (0: never: its own)
+  int rate_cuts = 0, rate_raises = 0;
   nlohmann::json ToJson() const;
 };
 
@@ -94,6 +97,7 @@ class LinkEndpoint {
   void Run();
   void OnDatagram(const uint8_t* data, size_t len, int64_t now_us);
   void Timers(int64_t now_us);
+  void QueueControl(uint8_t command, int32_t a0 = 0, int32_t a1 = 0, int32_t a2 = 0);  // mu_ held
   void Send(rl_message* m);
   void LogFrame(const LinkFrame& f, int64_t ground_capture_us, const char* status);
 
@@ -115,6 +119,7 @@ class LinkEndpoint {
 
   // Thread-only.
   FrameReassembler reassembler_;
+  RateControl rate_;
   ClockSync clock_;
   bool have_robot_addr_ = false;
   unsigned char robot_addr_[128] = {};  // sockaddr_storage

@@ -152,6 +152,34 @@ TEST(LinkEndpoint, TheRobotStopsWhenTheGroundStationGoesAway) {
   EXPECT_GE(robot->stats().failsafe_stops, 1u);
 }
 
+TEST(LinkEndpoint, ALinkTooSlowForTheFramesGetsALowerFrameRate) {
+  LinkEndpoint ground(Ground());
+  SimRobotOptions ro = Robot(ground.port(), 0, 10, 0);
+  ro.up.bandwidth_kbps = 800;  // 30 fps of 6 kB frames need 1,440 kbit/s
+  SimRobot robot(ro);
+  // A camera at 30 fps that obeys the rate asked for, as robot-sim does.
+  const auto t0 = std::chrono::steady_clock::now();
+  auto next = t0;
+  int i = 0;
+  while (std::chrono::steady_clock::now() - t0 < 20s && ground.stats().rate_cuts == 0) {
+    robot.SendFrame(Image(i++, 6000), 320, 240, RL_FORMAT_JPEG, 12);
+    const double fps = robot.asked_fps() > 0 ? robot.asked_fps() : 30.0;
+    next += std::chrono::microseconds(static_cast<int64_t>(1e6 / fps));
+    std::this_thread::sleep_until(next);
+    LinkFrameOut f;
+    while (ground.NextFrame(&f, 0)) {
+    }
+  }
+  const LinkStats s = ground.stats();
+  ASSERT_GE(s.rate_cuts, 1) << s.ToJson().dump();
+  EXPECT_GT(s.rate_asked_fps, 0);
+  EXPECT_LT(s.rate_asked_fps, 30);
+  // The control reached the robot, acknowledged.
+  EXPECT_TRUE(WaitFor([&] { return std::abs(robot.asked_fps() - ground.stats().rate_asked_fps) < 0.01; }, 10s))
+      << robot.asked_fps() << " " << ground.stats().ToJson().dump();
+  EXPECT_TRUE(ground.stats().ToJson()["rate_control"].contains("asked_fps"));
+}
+
 TEST(LinkEndpoint, ABadAddressIsAClearError) {
   LinkOptions o;
   o.bind = "localhost";

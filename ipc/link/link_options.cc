@@ -51,6 +51,7 @@ const OptionSpec<LinkOptions>& LinkOptions::Spec() {
     s->Text("frames_log", &O::frames_log, "CSV of every frame (latency, fragments); '' none");
     s->Number("max_halt_s", &O::max_halt_s, Above(0.0), AtMost(3600.0),
               "hierarchical mode: resume the robot after this long even if the merge has not come");
+    s->Section("rate_control", &O::rate_control, RateControlOptions::Spec());
     s->Rule([](const O& o) -> std::string {
       std::string h, why;
       int p;

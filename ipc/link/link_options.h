@@ -4,6 +4,7 @@
 #include <string>
 
 #include "common/option_spec.h"
+#include "ipc/link/rate_control.h"
 
 namespace rumi {
 
@@ -24,6 +25,7 @@ struct LinkOptions {
   int queue_frames = 8;               // complete frames waiting for the front; oldest dropped
   std::string frames_log;             // CSV of every frame (latency, fragments); "" none
   double max_halt_s = 15;             // hierarchical mode: resume even if the merge has not come
+  RateControlOptions rate_control;    // a lower frame rate when the link cannot carry the frames
   static const OptionSpec<LinkOptions>& Spec();
   bool Check(std::string* why = nullptr) const { return Spec().Check(*this, why); }
 };

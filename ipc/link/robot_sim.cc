@@ -108,7 +108,10 @@ void SimRobot::HwMotion(void* ctx, int moving, int) {
   auto* s = static_cast<SimRobot*>(ctx);
   s->motion_.push_back({LinkNowUs(), moving != 0});
 }
-int SimRobot::HwCamera(void*, int, int, int, int) { return 0; }
+int SimRobot::HwCamera(void* ctx, int, int, int, int fps_milli) {
+  static_cast<SimRobot*>(ctx)->asked_fps_milli_ = fps_milli;  // the size and quality are the sequence's
+  return 0;
+}
 int SimRobot::HwRssi(void* ctx) { return static_cast<SimRobot*>(ctx)->o_.rssi_dbm; }
 
 int64_t SimRobot::SendFrame(const std::vector<uint8_t>& bytes, int width, int height, uint8_t format,
@@ -130,6 +133,11 @@ void SimRobot::AddImu(const float accel[3], const float gyro[3]) {
 bool SimRobot::moving() const {
   std::lock_guard<std::mutex> l(mu_);
   return rr_moving(robot_.get());
+}
+
+bool SimRobot::heard() const {
+  std::lock_guard<std::mutex> l(mu_);
+  return robot_->heard != 0;
 }
 
 rr_stats SimRobot::stats() const {

@@ -62,6 +62,10 @@ class SimRobot {
   int64_t SendFrame(const std::vector<uint8_t>& bytes, int width, int height, uint8_t format, uint8_t quality);
   void AddImu(const float accel[3], const float gyro[3]);
   bool moving() const;
+  bool heard() const;  // the robot has heard the ground station since it started
+  // The frame rate the ground station asked for (control `frame rate`), fps;
+  // 0: none asked (the sequence's own). The caller paces its frames by it.
+  double asked_fps() const { return asked_fps_milli_.load() * 1e-3; }
   int64_t RobotNowUs() const;          // the simulated robot clock
   int64_t RobotClockAt(int64_t ground_us) const;
   rr_stats stats() const;
@@ -89,6 +93,7 @@ class SimRobot {
   Impairment up_, down_;
   std::multimap<int64_t, std::vector<uint8_t>> up_q_, down_q_;
   std::atomic<uint64_t> up_lost_{0}, down_lost_{0};
+  std::atomic<int> asked_fps_milli_{0};
   std::vector<std::pair<int64_t, bool>> motion_;
   std::atomic<bool> stop_{false};
   std::thread thread_;

@@ -133,7 +133,8 @@ void Run(const Args& a) {
     s->h = f.image.rows;
     return true;
   };
-  int sent = 0, sent_halted = 0, halts = 0, too_large = 0;
+  int sent = 0, sent_halted = 0, halts = 0, too_large = 0, not_captured = 0;
+  int64_t capture_due = 0;  // at a frame rate the ground station asked for: the next capture
   int64_t play_ns = 0, halted_ns = 0, waited_ns = 0, last_tick = SteadyNs(), next_imu = 0, last_send = 0;
   Timestamp t0 = -1;
   // The robot stands until it first hears the ground station (rumi_robot.h):
@@ -166,16 +167,17 @@ void Run(const Args& a) {
   // The walking state: halts counted, the sequence's clock runs only while
   // the robot walks.
   auto watch = [&](int64_t now) {
-    const bool m = robot->moving();
     if (!heard) {
       waited_ns += now - last_tick;
       last_tick = now;
-      if (!m) return;
+      if (!robot->heard()) return;
+      // From here on the usual changes count: a station that wants the
+      // robot halted from the start (rumi calibrate --link) is a halt.
       heard = moving = true;
-      std::cout << fmt::format("robot-sim: heard the ground station after {:.2f} s; walking\n", waited_ns * 1e-9);
+      std::cout << fmt::format("robot-sim: heard the ground station after {:.2f} s\n", waited_ns * 1e-9);
       std::cout.flush();
-      return;
     }
+    const bool m = robot->moving();
     if (m != moving) {
       halts += !m;
       std::cout << fmt::format("robot-sim: {} at {:.2f} s of the sequence\n", m ? "resumed" : "halted",
@@ -204,12 +206,21 @@ void Run(const Args& a) {
       robot->AddImu(acc, gyr);
       next_imu = std::max(now, next_imu + static_cast<int64_t>(1e9 / a.imu_hz));
     }
+    // The camera's rate: the sequence's, or lower when the ground station
+    // asked for less (its rate control, when the link cannot carry more).
+    const double fps = robot->asked_fps();
+    const int64_t interval = fps > 0 ? std::max(frame_interval, static_cast<int64_t>(1e9 / fps)) : frame_interval;
     if (!next.jpeg.empty() && data_t >= next.data_t) {
       current = std::move(next);
       next = Shot();
-      send(current, true);
+      if (fps <= 0 || now >= capture_due - frame_interval / 2) {
+        send(current, true);
+        capture_due = std::max(capture_due + interval, now - frame_interval);
+      } else {
+        ++not_captured;
+      }
       load();
-    } else if (!moving && !current.jpeg.empty() && now - last_send >= frame_interval) {
+    } else if (!moving && !current.jpeg.empty() && now - last_send >= interval) {
       send(current, false);  // standing: the same view again
     }
     std::this_thread::sleep_for(std::chrono::microseconds(500));
@@ -233,6 +244,8 @@ void Run(const Args& a) {
   nlohmann::json j = {
       {"frames_sent", sent},
       {"frames_sent_halted", sent_halted},
+      {"frames_not_captured", not_captured},  // skipped at the frame rate the ground station asked for
+      {"asked_fps", robot->asked_fps()},
       {"frames_too_large", too_large},
       {"mean_frame_bytes", sent ? static_cast<double>(bytes_sent) / sent : 0.0},
       {"halts", halts},
