@@ -20,8 +20,10 @@ namespace rumi {
 struct RateControlOptions {
   bool enabled = true;
   double window_s = 1.0;          // frames judged together
-  double max_dropped = 0.05;      // dropped share of a window's frames above which the rate is cut
-  double max_late = 0.8;          // ... or a p90 latency above this share of the frame deadline
+  // Mild overload (a few % of frames dropped) is left alone: the front
+  // copes with a few frames missing better than with a lower rate.
+  double max_dropped = 0.15;      // dropped share of a window's frames above which the rate is cut
+  double max_late = 1.0;          // ... or a p90 latency above this share of the frame deadline
   double cut = 0.7;               // new rate = cut x the window's arrival rate
   double hold_s = 2.0;            // no second cut this soon: the frames queued before the cut drain first
   double min_fps = 2;
