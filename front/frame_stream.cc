@@ -29,6 +29,7 @@ const OptionSpec<SourceOptions>& SourceOptions::Spec() {
     s->Number("rate", &O::rate, AtLeast(0.0), AtMost(1000.0), "dataset: x recorded speed; 0: as fast as possible");
     s->Flag("loop", &O::loop, "dataset or video file: start again at the end (timestamps keep increasing)");
     s->Text("odometry", &O::odometry, "dataset: TUM file of the robot's pose source (optional)");
+    s->Text("imu", &O::imu, "dataset: IMU file, EuRoC imu0 columns (`rumi synth` writes imu.csv; optional)");
     s->Text("calibration", &O::calibration,
             "dataset: '' the config's camera: (else the dataset's own), 'dataset' its own, or a YAML file's camera:");
     s->Number("fps", &O::fps, AtLeast(0.0), AtMost(1000.0), "capture of a video file: pace at this rate; 0: its own");

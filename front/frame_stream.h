@@ -29,6 +29,7 @@
 
 #include "common/camera.h"
 #include "common/dataset.h"
+#include "common/imu.h"
 #include "common/option_spec.h"
 #include "ipc/link/link_options.h"
 
@@ -43,6 +44,7 @@ struct SourceOptions {
   double rate = 1.0;             // dataset: x recorded speed; 0: as fast as possible
   bool loop = false;             // dataset / video file: start again at the end
   std::string odometry;          // dataset: TUM file of the robot's pose source (optional)
+  std::string imu;               // dataset: IMU file (EuRoC imu0 columns; optional)
   // dataset: its calibration. "": the config's camera: section when it has
   // one, else the dataset's own; "dataset": the dataset's own (TUM fr1-3,
   // EuRoC sensor.yaml, KITTI calib.txt, ...); a path: that YAML's camera:
@@ -78,6 +80,9 @@ class FrameStream {
   virtual uint64_t unreadable() const = 0;  // frames that could not be decoded
   // Added to the dataset's listed timestamps (a looped dataset); 0 otherwise.
   virtual Timestamp timestamp_offset() const { return 0; }
+  // IMU samples the source received since the last call (a robot link's),
+  // on the frames' clock. Next's thread.
+  virtual std::vector<ImuSample> TakeImu() { return {}; }
   // Details for the status (the link's statistics); null when none. Any thread.
   virtual nlohmann::json Detail() const { return nullptr; }
   // A source that can stop the robot (the link): halt while the front wants

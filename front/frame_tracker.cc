@@ -9,16 +9,26 @@
 
 namespace rumi {
 
-bool TrackWithMotionModel(TrackFrame* cur, const TrackFrame& last, const Se3& velocity, double velocity_dt_s,
-                          double search_radius, const PinholeCamera& cam, const ScalePyramid& pyr) {
+Se3 PredictWithVelocity(const Se3& last_T_cw, Timestamp last_t, Timestamp cur_t, const Se3& velocity,
+                        double velocity_dt_s) {
   // Constant velocity in time: a short drop (up to 3 intervals) scales the
   // predicted motion; over longer gaps extrapolation is worse than one
   // interval's motion (seen on the synthetic `drop` sequence).
   Se3 v = velocity;
-  const double dt = NsToSeconds(cur->timestamp - last.timestamp);
+  const double dt = NsToSeconds(cur_t - last_t);
   if (velocity_dt_s > 0 && dt > 0 && std::abs(dt / velocity_dt_s - 1.0) > 0.2 && dt / velocity_dt_s <= 3.0)
     v = Se3::Exp(velocity.Log() * (dt / velocity_dt_s));
-  cur->T_cw = v * last.T_cw;
+  return v * last_T_cw;
+}
+
+Se3 WithRotation(const Se3& predicted_T_cw, const Eigen::Quaterniond& R_cw) {
+  const Eigen::Vector3d centre = -(predicted_T_cw.rotation().conjugate() * predicted_T_cw.translation());
+  return Se3(R_cw, -(R_cw.normalized() * centre));
+}
+
+bool TrackWithMotionModel(TrackFrame* cur, const TrackFrame& last, const Se3& predicted_T_cw, double search_radius,
+                          const PinholeCamera& cam, const ScalePyramid& pyr) {
+  cur->T_cw = predicted_T_cw;
   cur->Reset(cur->f->size());
   int n = SearchByProjection(cur, last, cam, pyr, search_radius, true);
   if (n < 20) {
@@ -29,12 +39,12 @@ bool TrackWithMotionModel(TrackFrame* cur, const TrackFrame& last, const Se3& ve
   return OptimizePose(cur, cam, pyr) >= 10;
 }
 
-bool TrackReferenceKeyFrame(TrackFrame* cur, const TrackFrame& last, const KeyFrame& ref, const PinholeCamera& cam,
-                            const ScalePyramid& pyr) {
-  cur->T_cw = last.T_cw;
+bool TrackReferenceKeyFrame(TrackFrame* cur, const TrackFrame& last, const KeyFrame& ref, const Se3& start_T_cw,
+                            const PinholeCamera& cam, const ScalePyramid& pyr) {
+  cur->T_cw = start_T_cw;
   cur->Reset(cur->f->size());
   // Without a vocabulary: wide projection windows with a ratio test, from the
-  // last pose (the camera has not moved far when the motion model failed).
+  // last position (the camera has not moved far when the motion model failed).
   int n = SearchKeyFramePoints(cur, ref, cam, pyr, 40.0, kDescHigh, 0.8);
   n += SearchByProjection(cur, last, cam, pyr, 40.0, true);
   if (n < 15) return false;

@@ -52,6 +52,112 @@ void Front::AddPosePrior(Timestamp t, const Se3& T_wb) {
   poses_.Add(t, T_wb * options_.odometry_T_bc);  // camera poses from here on
 }
 
+void Front::AddImu(Timestamp t, const Eigen::Vector3d& gyro) {
+  if (options_.gyro_prior) gyro_.Add(t, gyro);
+}
+
+std::optional<Eigen::Quaterniond> Front::GyroRotation() const {
+  if (!options_.gyro_prior || gyro_stats_.disabled || gyro_.empty() || last_.timestamp <= 0) return std::nullopt;
+  const auto R_b0_b1 = gyro_.Rotation(last_.timestamp, cur_.timestamp, gyro_stats_.bias);
+  if (!R_b0_b1) return std::nullopt;
+  // R_c0_c1 = R_bc^T R_b0_b1 R_bc; the motion model wants R_c1_c0.
+  const Eigen::Quaterniond& R_bc = options_.imu_T_bc.rotation();
+  return (R_bc.conjugate() * *R_b0_b1 * R_bc).conjugate();
+}
+
+std::string Front::GyroSummary() const {
+  if (gyro_.empty()) return "";
+  const GyroStats& g = gyro_stats_;
+  return fmt::format("gyro prior: {} tracked frames predicted, {} losses or gaps bridged, bias [{:.4f}, {:.4f}, "
+                     "{:.4f}] rad/s ({} updates){}",
+                     g.predicted, g.bridged, g.bias.x(), g.bias.y(), g.bias.z(), g.bias_updates,
+                     g.disabled ? ", switched off: it disagreed with vision" : "");
+}
+
+void Front::UpdateGyroBias(const Eigen::Quaterniond& R_cur_last_gyro) {
+  // The tracked rotation is unbiased; what the gyro turned too far, per
+  // second, is left-over bias. A slow average of it, outliers (a bad track)
+  // ignored, keeps the prior good on an IMU nobody calibrated; the first
+  // updates take larger steps and larger errors (an MPU6050 is off by up
+  // to 20 deg/s before calibration).
+  const double dt = NsToSeconds(cur_.timestamp - last_.timestamp);
+  if (dt <= 0 || dt > 0.2) return;
+  const Eigen::Quaterniond R_vis = cur_.T_cw.rotation() * last_.T_cw.rotation().conjugate();  // R_c1_c0
+  const Eigen::Quaterniond& R_bc = options_.imu_T_bc.rotation();
+  // Error of the gyro in the IMU frame: R_b0_b1(vis)^T R_b0_b1(gyro).
+  const Eigen::Quaterniond e = R_bc * (R_vis * R_cur_last_gyro.conjugate()) * R_bc.conjugate();
+  const Eigen::AngleAxisd aa(e.normalized());
+  const Eigen::Vector3d rate = aa.axis() * aa.angle() / dt;
+  if (!rate.allFinite()) return;
+  const bool warming = ++gyro_checks_ <= 30;
+  // A gyro that keeps disagreeing with vision (a wrong imu_T_bc, a broken
+  // sensor) is switched off rather than trusted: 20 of the last 30 frames
+  // off by more than 1 deg and 30 % of the tracked turn. (Per frame a small
+  // image's tracked rotation is noisy, and a sideways step can pass for a
+  // turn: a bound on the rate alone switched good gyros off at 320x240.)
+  const double turn = Eigen::AngleAxisd(R_vis).angle();
+  const bool off = aa.angle() > std::max(1.0 * M_PI / 180.0, 0.3 * turn);
+  gyro_disagree_ = (gyro_disagree_ << 1 | (off ? 1u : 0u)) & ((1u << 30) - 1);
+  if (gyro_checks_ >= 30 && __builtin_popcount(gyro_disagree_) >= 20) {
+    spdlog::warn("front: the gyro disagrees with the tracked rotation on {} of the last 30 frames: gyro prior off "
+                 "(check front.imu_T_bc, the camera's pose in the IMU frame)",
+                 __builtin_popcount(gyro_disagree_));
+    gyro_stats_.disabled = true;
+    return;
+  }
+  // Outliers (a bad track) do not move the bias.
+  const bool agrees = rate.norm() <= (warming ? 0.5 : 0.1);
+  if (!agrees) return;
+  gyro_stats_.bias += (warming ? 0.1 : 0.02) * rate;
+  ++gyro_stats_.bias_updates;
+}
+
+void Front::SetAnchor(bool velocity_valid, const Se3& velocity, double velocity_dt_s) {
+  anchor_ = Anchor();
+  if (!options_.gyro_prior || gyro_stats_.disabled || gyro_.empty()) return;
+  anchor_.valid = true;
+  anchor_.frame = last_;
+  anchor_.frame.points.clear();
+  anchor_.point_ids.assign(last_.points.size(), -1);
+  for (size_t i = 0; i < last_.points.size(); ++i)
+    if (last_.points[i] && !last_.points[i]->bad) anchor_.point_ids[i] = last_.points[i]->id;
+  anchor_.velocity_valid = velocity_valid;
+  anchor_.velocity = velocity;
+  anchor_.velocity_dt_s = velocity_dt_s;
+}
+
+bool Front::BridgeOpen() const {
+  return anchor_.valid && NsToSeconds(cur_.timestamp - anchor_.frame.timestamp) <= options_.gyro_bridge_s;
+}
+
+bool Front::BridgeWithGyro() {
+  if (!BridgeOpen()) return false;
+  {
+    std::lock_guard<std::mutex> l(map_->mutex);
+    anchor_.frame.Reset(anchor_.point_ids.size());
+    for (size_t i = 0; i < anchor_.point_ids.size(); ++i) {
+      if (anchor_.point_ids[i] < 0) continue;
+      const auto it = map_->points.find(anchor_.point_ids[i]);
+      if (it != map_->points.end() && !it->second->bad) anchor_.frame.points[i] = it->second.get();
+    }
+  }
+  std::swap(last_, anchor_.frame);
+  velocity_valid_ = anchor_.velocity_valid;
+  velocity_ = anchor_.velocity;
+  velocity_dt_s_ = anchor_.velocity_dt_s;
+  const bool ok = GyroRotation() && TrackCurrent(true);
+  std::swap(last_, anchor_.frame);
+  if (!ok) {
+    velocity_valid_ = false;
+    cur_.Reset(cur_.f->size());
+    return false;
+  }
+  ++gyro_stats_.bridged;
+  state_ = TrackingState::kTracking;
+  anchor_.valid = false;
+  return true;
+}
+
 void Front::TrimFinished(size_t n) {
   for (size_t i = trimmed_; i < std::min(n, finished_.size()); ++i) {
     Submap& s = finished_[i];
@@ -117,15 +223,25 @@ FrameRecord Front::Track(Timestamp t, const cv::Mat& image) {
   } else {
     switch (state_) {
       case TrackingState::kInitializing: Initialize(); break;
-      case TrackingState::kTracking:
+      case TrackingState::kTracking: {
+        const bool v_ok = velocity_valid_;
+        const Se3 v = velocity_;
+        const double v_dt = velocity_dt_s_;
         // A gap of several frame intervals (dropped frames): the motion
-        // model is meaningless, relocalise (descriptor matching + PnP) instead.
+        // model is meaningless; the gyro bridges it when it saw the whole
+        // gap, else relocalise (descriptor matching + PnP).
         if (frame_interval_s_ > 0 && NsToSeconds(t - last_.timestamp) > 4.0 * frame_interval_s_ &&
             NsToSeconds(t - last_.timestamp) > 0.2) {
-          spdlog::info("front: {:.2f} s gap before {}, relocalising", NsToSeconds(t - last_.timestamp), FormatSeconds(t));
+          SetAnchor(v_ok, v, v_dt);
           state_ = TrackingState::kLost;
           lost_since_ = t;
           velocity_valid_ = false;
+          if (BridgeWithGyro()) {
+            spdlog::info("front: {:.2f} s gap before {} bridged by the gyro", NsToSeconds(t - last_.timestamp),
+                         FormatSeconds(t));
+            break;
+          }
+          spdlog::info("front: {:.2f} s gap before {}, relocalising", NsToSeconds(t - last_.timestamp), FormatSeconds(t));
           if (!Relocalize() && !Relocalize()) {}  // two candidate pairs right away
           break;
         }
@@ -136,12 +252,19 @@ FrameRecord Front::Track(Timestamp t, const cv::Mat& image) {
             StartNewSubmap(false);
           } else {
             spdlog::info("front: tracking lost at {} in submap {}", FormatSeconds(t), submap_id_);
+            SetAnchor(v_ok, v, v_dt);
             state_ = TrackingState::kLost;
             lost_since_ = t;
           }
         }
         break;
+      }
       case TrackingState::kLost:
+        if (BridgeWithGyro()) {
+          spdlog::info("front: tracking at {} again, bridged by the gyro from {} ({:.2f} s)", FormatSeconds(t),
+                       FormatSeconds(anchor_.frame.timestamp), NsToSeconds(t - anchor_.frame.timestamp));
+          break;
+        }
         if (!Relocalize() && NsToSeconds(t - lost_since_) >= options_.reloc_time_s) {
           spdlog::info("front: relocalisation failed for {:.2f} s, new submap {}",
                        NsToSeconds(t - lost_since_), submap_id_ + 1);
@@ -248,7 +371,7 @@ void Front::Initialize() {
   }
 }
 
-bool Front::TrackCurrent() {
+bool Front::TrackCurrent(bool across_gap) {
   const auto w0 = std::chrono::steady_clock::now();
   std::unique_lock<std::mutex> lock(map_->mutex);
   lock_wait_ms_ += MsSince(w0);
@@ -259,13 +382,36 @@ bool Front::TrackCurrent() {
     for (auto it = map_->keyframes.rbegin(); it != map_->keyframes.rend(); ++it)
       if (!it->second->bad) { ref_kf_ = it->second.get(); break; }
   }
+  const std::optional<Eigen::Quaterniond> R_gyro = GyroRotation();
+  // The prediction: constant velocity, the rotation the gyro measured when
+  // there is one. Across a gap only the camera centre is extrapolated (the
+  // gyro knows the turn; a turn extrapolated over a second would not be).
+  Se3 predicted = last_.T_cw;
+  if (velocity_valid_ && !across_gap) {
+    predicted = PredictWithVelocity(last_.T_cw, last_.timestamp, cur_.timestamp, velocity_, velocity_dt_s_);
+  } else if (velocity_valid_ && velocity_dt_s_ > 0) {
+    const Eigen::Vector3d c0 = -(last_.T_cw.rotation().conjugate() * last_.T_cw.translation());
+    const Se3 next = velocity_ * last_.T_cw;
+    const Eigen::Vector3d c1 = -(next.rotation().conjugate() * next.translation());
+    const Eigen::Vector3d c = c0 + (c1 - c0) * (NsToSeconds(cur_.timestamp - last_.timestamp) / velocity_dt_s_);
+    predicted = Se3(last_.T_cw.rotation(), -(last_.T_cw.rotation() * c));
+  }
+  if (R_gyro) predicted = WithRotation(predicted, *R_gyro * last_.T_cw.rotation());
+  const double radius = options_.motion_search_radius * (across_gap ? 3.0 : 1.0);
   bool ok = false;
-  if (velocity_valid_)
-    ok = TrackWithMotionModel(&cur_, last_, velocity_, velocity_dt_s_, options_.motion_search_radius, camera_, pyramid());
-  if (!ok && ref_kf_) ok = TrackReferenceKeyFrame(&cur_, last_, *ref_kf_, camera_, pyramid());
+  if (velocity_valid_ || R_gyro)
+    ok = TrackWithMotionModel(&cur_, last_, predicted, radius, camera_, pyramid());
+  if (!ok && R_gyro && velocity_valid_ && !across_gap)  // the gyro may be what is wrong
+    ok = TrackWithMotionModel(&cur_, last_,
+                              PredictWithVelocity(last_.T_cw, last_.timestamp, cur_.timestamp, velocity_, velocity_dt_s_),
+                              radius, camera_, pyramid());
+  if (!ok && ref_kf_)
+    ok = TrackReferenceKeyFrame(&cur_, last_, *ref_kf_, R_gyro ? WithRotation(last_.T_cw, predicted.rotation()) : last_.T_cw,
+                                camera_, pyramid());
   int inliers = 0;
   if (ok) {
-    inliers = TrackLocalMap(&cur_, map_.get(), &ref_kf_, cur_.id - last_reloc_frame_ < 3, options_, camera_, pyramid());
+    inliers = TrackLocalMap(&cur_, map_.get(), &ref_kf_, across_gap || cur_.id - last_reloc_frame_ < 3, options_,
+                            camera_, pyramid());
     const int need = cur_.id - last_reloc_frame_ < 10 ? std::max(options_.min_tracked_inliers, 50)
                                                        : options_.min_tracked_inliers;
     ok = inliers >= need;
@@ -276,9 +422,14 @@ bool Front::TrackCurrent() {
     velocity_valid_ = false;
     return false;
   }
+  if (R_gyro) {
+    ++gyro_stats_.predicted;
+    if (!across_gap && inliers >= 2 * options_.min_tracked_inliers) UpdateGyroBias(*R_gyro);
+  }
+  // A velocity measured over a gap says little about the next interval.
+  velocity_valid_ = !across_gap;
   velocity_ = cur_.T_cw * last_.T_cw.Inverse();
   velocity_dt_s_ = NsToSeconds(cur_.timestamp - last_.timestamp);
-  velocity_valid_ = true;
   // Outliers do not propagate to the next frame.
   for (size_t i = 0; i < cur_.points.size(); ++i)
     if (cur_.outlier[i]) { cur_.points[i] = nullptr; cur_.outlier[i] = false; }
@@ -344,6 +495,7 @@ void Front::FinishSubmap(bool keep) {
   submap_frames_.clear();
   ref_kf_ = nullptr;
   velocity_valid_ = false;
+  anchor_ = Anchor();
   last_.points.clear();
   last_.outlier.clear();
   initializer_.Reset();

@@ -19,6 +19,7 @@
 #include <opencv2/core.hpp>
 
 #include "common/camera.h"
+#include "common/imu.h"
 #include "common/pose_buffer.h"
 #include "common/submap.h"
 #include "front/feature_extractor.h"
@@ -58,6 +59,21 @@ class Front {
   // poses at a submap's frames travel with it (Submap::odometry). Call from
   // the tracking thread, in time order, before Track() of the frames it covers.
   void AddPosePrior(Timestamp t, const Se3& T_wb);
+  // IMU gyro samples (rad/s, IMU frame) in time order, from the tracking
+  // thread before Track() of the frames they cover. With options.gyro_prior
+  // the motion model takes each frame's rotation from them, and a gap in the
+  // frames (a lossy link) is bridged by the gyro before relocalising.
+  void AddImu(Timestamp t, const Eigen::Vector3d& gyro);
+  struct GyroStats {
+    int64_t predicted = 0;  // tracked frames whose prediction the gyro turned
+    int64_t bridged = 0;    // frame gaps tracked across with the gyro's rotation
+    int64_t bias_updates = 0;
+    Eigen::Vector3d bias = Eigen::Vector3d::Zero();  // rad/s, IMU frame
+    bool disabled = false;  // switched off: it kept disagreeing with the tracked rotation
+  };
+  const GyroStats& gyro_stats() const { return gyro_stats_; }
+  // "gyro prior: ..." for the log; "" when no IMU sample came.
+  std::string GyroSummary() const;
 
   // Finishes the current submap (end of sequence); idempotent.
   void Finish();
@@ -86,7 +102,20 @@ class Front {
 
  private:
   void Initialize();
-  bool TrackCurrent();
+  // across_gap: frames were missing since last_ (the gyro's rotation, last
+  // position held, wide windows).
+  bool TrackCurrent(bool across_gap = false);
+  // The camera's rotation from the last frame to the current one, R_cur_last,
+  // from the gyro; nullopt without samples covering the span.
+  std::optional<Eigen::Quaterniond> GyroRotation() const;
+  void UpdateGyroBias(const Eigen::Quaterniond& R_cur_last_gyro);
+  // Tracking was lost (or frames went missing) after last_: keep it and the
+  // velocity before the loss, so the gyro can bridge the loss from there.
+  void SetAnchor(bool velocity_valid, const Se3& velocity, double velocity_dt_s);
+  // Tracks cur_ from the anchor with the gyro's rotation since then, while
+  // the loss is younger than options.gyro_bridge_s. True when tracked.
+  bool BridgeWithGyro();
+  bool BridgeOpen() const;  // the anchor is young enough
   bool Relocalize();
   void StartNewSubmap(bool keep);
   void FinishSubmap(bool keep);
@@ -139,6 +168,21 @@ class Front {
   PoseBuffer poses_{100000};  // the pose source, camera poses
   Se3 coarse_T_wc0_;
   std::optional<Se3> coarse_pose0_;
+  GyroIntegrator gyro_;
+  GyroStats gyro_stats_;
+  uint32_t gyro_disagree_ = 0;  // the last 30 checks against vision: bit set = disagreed
+  int64_t gyro_checks_ = 0;
+  // The last tracked frame before a loss; its points by id (the mapper may
+  // cull and free them while the front is lost).
+  struct Anchor {
+    bool valid = false;
+    TrackFrame frame;
+    std::vector<int64_t> point_ids;
+    bool velocity_valid = false;
+    Se3 velocity;
+    double velocity_dt_s = 0;
+  };
+  Anchor anchor_;
   bool finished_all_ = false;
 };
 

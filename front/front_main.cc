@@ -62,7 +62,7 @@ int Main(int argc, char** argv) {
   app.add_flag("--sync", sync, "run local mapping inline (deterministic; not realtime)");
   // Process mode (docs/eval.md): the configured source (or --dataset),
   // windows and submaps over shared memory.
-  std::string instance, rate, odometry_path, calibration;
+  std::string instance, rate, odometry_path, imu_path, calibration;
   double resend_interval_s = -1, wait_for_consumers_s = -1;
   int64_t first_submap_id = 0, replay_start_ns = 0;
   bool daemon = false;
@@ -70,6 +70,9 @@ int Main(int argc, char** argv) {
   app.add_option("--odometry", odometry_path,
                  "TUM file of the robot's pose source (body -> odometry world; front.odometry_T_bc gives the "
                  "camera in the body), sent with the submaps so the manager can join submaps vision cannot");
+  app.add_option("--imu", imu_path,
+                 "IMU file (EuRoC imu0 columns; `rumi synth` writes imu.csv): the gyro predicts each frame's rotation "
+                 "(front.gyro_prior, front.imu_T_bc)");
   app.add_option("--calibration", calibration,
                  "with --instance: the dataset's calibration, 'dataset' or a YAML with camera: (overrides "
                  "source.calibration)");
@@ -94,6 +97,7 @@ int Main(int argc, char** argv) {
       o.stream.source.path = path;
     }
     if (!odometry_path.empty()) o.stream.source.odometry = odometry_path;
+    if (!imu_path.empty()) o.stream.source.imu = imu_path;
     if (!calibration.empty()) o.stream.source.calibration = calibration;
     if (!rate.empty()) {
       FrameReplayOptions r;
@@ -144,6 +148,20 @@ int Main(int argc, char** argv) {
     for (const StampedPose& p : odometry) front.AddPosePrior(p.t, p.T_wc);
     spdlog::info("rumi-front: pose source {} ({} poses)", odometry_path, odometry.size());
   }
+  std::optional<ImuReplay> imu;
+  if (!imu_path.empty() && loop > 1) {
+    spdlog::error("rumi-front: --imu cannot follow --loop (played backwards, the frames no longer match it)");
+    return kExitBadInput;
+  }
+  if (!imu_path.empty()) {
+    try {
+      imu.emplace(ReadImuCsv(imu_path));
+    } catch (const std::exception& e) {
+      spdlog::error("rumi-front: imu: {}", e.what());
+      return kExitBadInput;
+    }
+    spdlog::info("rumi-front: IMU {} ({} samples)", imu_path, imu->size());
+  }
   spdlog::info("rumi-front: {} frames, camera {}x{} fx {:.2f}", source->size(), source->camera().width(),
                source->camera().height(), source->camera().fx());
   Frame frame;
@@ -159,6 +177,8 @@ int Main(int argc, char** argv) {
       if (!play0) { play0 = std::chrono::steady_clock::now(); t0 = t; }
       std::this_thread::sleep_until(*play0 + std::chrono::nanoseconds(t - t0));
     }
+    if (imu)  // as a robot delivers them
+      for (const ImuSample& s : imu->Until(t)) front.AddImu(s.t, s.gyro);
     front.Track(t, image);
     all_t.push_back(t);
     ++n;
@@ -199,6 +219,7 @@ int Main(int argc, char** argv) {
     }
   }
   front.Finish();
+  if (const std::string g = front.GyroSummary(); !g.empty()) std::cout << g << "\n";
   const auto& subs = front.FinishedSubmaps();
   const Submap* largest = nullptr;
   for (const Submap& s : subs)

@@ -26,7 +26,7 @@ const OptionSpec<HierarchicalOptions>& HierarchicalOptions::Spec() {
 bool HierarchicalOptions::Check(std::string* why) const { return Spec().Check(*this, why); }
 
 namespace {
-// odometry_T_bc: [tx, ty, tz, qx, qy, qz, qw].
+// odometry_T_bc, imu_T_bc: [tx, ty, tz, qx, qy, qz, qw].
 void ReadPose(ConfigSection& s, const std::string& key, Se3* T) {
   std::vector<double> v;
   if (!s.Read(key, &v)) return;
@@ -35,6 +35,19 @@ void ReadPose(ConfigSection& s, const std::string& key, Se3* T) {
   const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
   if (!(std::abs(q.norm() - 1.0) < 1e-3)) s.Fail(key, "rotation is not a unit quaternion (x y z w order)");
   *T = Se3(q.normalized(), Eigen::Vector3d(v[0], v[1], v[2]));
+}
+
+void AddPoseOption(OptionSpec<FrontOptions>* s, const std::string& key, const std::string& help,
+                   Se3 FrontOptions::*field) {
+  s->Custom({key, "", "[tx, ty, tz, qx, qy, qz, qw]", help},
+            [key, field](ConfigSection& sec, FrontOptions* o) { ReadPose(sec, key, &(o->*field)); }, nullptr,
+            [field](const FrontOptions& o) {
+              const auto& t = (o.*field).translation();
+              const auto& q = (o.*field).rotation();
+              return "[" + std::to_string(t.x()) + ", " + std::to_string(t.y()) + ", " + std::to_string(t.z()) +
+                     ", " + std::to_string(q.x()) + ", " + std::to_string(q.y()) + ", " + std::to_string(q.z()) +
+                     ", " + std::to_string(q.w()) + "]";
+            });
 }
 }  // namespace
 
@@ -84,16 +97,13 @@ const OptionSpec<FrontOptions>& FrontOptions::Spec() {
     s->Number("reloc_min_inliers", &O::reloc_min_inliers, AtLeast(10), AtMost(100000), "inliers of a relocalisation");
     s->Flag("hierarchical", &O::hierarchical, "fine/coarse mode of the rat-robot paper");
     s->Section("hierarchical_mode", &O::hier, HierarchicalOptions::Spec());
-    s->Custom({"odometry_T_bc", "", "[tx, ty, tz, qx, qy, qz, qw]",
-               "camera pose in the pose source's body frame; identity when omitted"},
-              [](ConfigSection& sec, O* o) { ReadPose(sec, "odometry_T_bc", &o->odometry_T_bc); }, nullptr,
-              [](const O& o) {
-                const auto& t = o.odometry_T_bc.translation();
-                const auto& q = o.odometry_T_bc.rotation();
-                return "[" + std::to_string(t.x()) + ", " + std::to_string(t.y()) + ", " + std::to_string(t.z()) +
-                       ", " + std::to_string(q.x()) + ", " + std::to_string(q.y()) + ", " + std::to_string(q.z()) +
-                       ", " + std::to_string(q.w()) + "]";
-              });
+    AddPoseOption(s, "odometry_T_bc", "camera pose in the pose source's body frame; identity when omitted",
+                  &O::odometry_T_bc);
+    s->Flag("gyro_prior", &O::gyro_prior, "predict each frame's rotation from the IMU's gyro when there is one");
+    s->Number("gyro_bridge_s", &O::gyro_bridge_s, AtLeast(0.0), AtMost(10.0),
+              "lost with a gyro: track from the last tracked frame by its rotation this long (0: never)");
+    AddPoseOption(s, "imu_T_bc", "camera pose in the IMU frame (its rotation turns the gyro); identity when omitted",
+                  &O::imu_T_bc);
     s->Rule("reinit_min_triangulated must be >= init_min_triangulated",
             [](const O& o) { return o.reinit_min_triangulated >= o.init_min_triangulated; });
     return s;

@@ -60,6 +60,15 @@ struct FrontOptions {
   // (YAML `odometry_T_bc: [tx, ty, tz, qx, qy, qz, qw]`), so body poses
   // become camera poses (coarse poses, submap links, Submap::odometry).
   Se3 odometry_T_bc;
+  // IMU (a robot link's, or a dataset's imu file): the gyro predicts each
+  // frame's rotation from the last (the motion model keeps the translation),
+  // its bias estimated online against the tracked rotation; a loss or a gap
+  // in the frames is bridged from the last tracked frame by the gyro's
+  // rotation (the camera centre extrapolated). imu_T_bc is the
+  // camera's pose in the IMU frame (only its rotation is used).
+  bool gyro_prior = true;
+  double gyro_bridge_s = 1.5;             // lost with a gyro: try its prediction from the last tracked frame this long
+  Se3 imu_T_bc;
 
   // Section `front:` (sub-sections `orb:` and `hierarchical_mode:`).
   static const OptionSpec<FrontOptions>& Spec();

@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -45,6 +46,16 @@ int RunFront(const FrontRunOptions& o, const std::atomic<bool>* stop) {
     }
   }
 
+  std::optional<ImuReplay> imu_file;
+  if (!o.stream.source.imu.empty()) {
+    try {
+      imu_file.emplace(ReadImuCsv(o.stream.source.imu));
+    } catch (const std::exception& e) {
+      spdlog::error("front: imu: {}", e.what());
+      return kExitBadInput;
+    }
+  }
+
   // The front's own stop flag: the caller's (mirrored here every 20 ms, so a
   // stream waiting for a camera that is down notices a SIGTERM too).
   std::atomic<bool> stop_flag{false}, done{false};
@@ -66,8 +77,9 @@ int RunFront(const FrontRunOptions& o, const std::atomic<bool>* stop) {
   cv::setNumThreads(1);  // shared cores: OpenCV threads would fight tracking + mapping
   size_t n = 0, used = 0;
   const auto run_start = std::chrono::steady_clock::now();
-  std::mutex halt_mutex;  // halt_stats: the tracking thread writes, the publisher reads
+  std::mutex halt_mutex;  // halt_stats, gyro_stats: the tracking thread writes, the publisher reads
   HaltStats halt_stats;
+  Front::GyroStats gyro_stats;
   try {
     Front front(o.front, stream->camera(), o.first_submap_id);
     front.LimitHistory(1);  // the publisher logs every frame; a day-long run must not grow
@@ -98,8 +110,17 @@ int RunFront(const FrontRunOptions& o, const std::atomic<bool>* stop) {
     if (halting) stream->SetIdle([&] {
         if (halt.halted()) update_halt(-1, 0);
       });
-    pub.SetSourceDetail([source, halting, &halt_mutex, &halt_stats] {
+    pub.SetSourceDetail([source, halting, &halt_mutex, &halt_stats, &gyro_stats] {
       nlohmann::json d = source->Detail();
+      if (d.is_object()) {  // what the front made of the link's IMU
+        std::lock_guard<std::mutex> l(halt_mutex);
+        if (gyro_stats.predicted + gyro_stats.bias_updates > 0 || gyro_stats.disabled)
+          d["gyro"] = {{"predicted", gyro_stats.predicted},
+                       {"bridged", gyro_stats.bridged},
+                       {"bias_updates", gyro_stats.bias_updates},
+                       {"bias", {gyro_stats.bias.x(), gyro_stats.bias.y(), gyro_stats.bias.z()}},
+                       {"disabled", gyro_stats.disabled}};
+      }
       if (halting && d.is_object()) {
         std::lock_guard<std::mutex> l(halt_mutex);
         d["halts"] = {{"halts", halt_stats.halts},
@@ -113,6 +134,7 @@ int RunFront(const FrontRunOptions& o, const std::atomic<bool>* stop) {
                  o.first_submap_id ? ", first submap id " + std::to_string(o.first_submap_id) : "");
     if (!odometry.empty())
       spdlog::info("front: pose source {} ({} poses)", o.stream.source.odometry, odometry.size());
+    if (imu_file) spdlog::info("front: IMU {} ({} samples)", o.stream.source.imu, imu_file->size());
     Notifier notifier;
     notifier.Ready();
     const std::function<Submap()> snapshot = [&front] { return front.CurrentSubmap(); };
@@ -153,6 +175,10 @@ int RunFront(const FrontRunOptions& o, const std::atomic<bool>* stop) {
           ++next_odometry;
         }
       }
+      // The IMU: a live source's samples so far, or a file's up to the frame.
+      for (const ImuSample& s : stream->TakeImu()) front.AddImu(s.t, s.gyro);
+      if (imu_file)
+        for (const ImuSample& s : imu_file->Until(frame.timestamp, stream->timestamp_offset())) front.AddImu(s.t, s.gyro);
       const int64_t submap_before = front.current_submap_id();
       const bool coarse_before = front.halt();
       const FrameRecord rec = front.Track(frame.timestamp, frame.image);
@@ -161,6 +187,10 @@ int RunFront(const FrontRunOptions& o, const std::atomic<bool>* stop) {
         const bool finished = !coarse_before && front.halt() && !fin.empty() && fin.back().id == submap_before;
         const Timestamp finished_end = finished && !fin.back().frames.empty() ? fin.back().frames.back().timestamp : 0;
         update_halt(finished ? submap_before : -1, finished_end);
+      }
+      {
+        std::lock_guard<std::mutex> l(halt_mutex);
+        gyro_stats = front.gyro_stats();
       }
       const FrameTiming& tm = front.timings().back();
       pub.OnFrame(rec, frame.image, tm.total_ms, tm.cpu_ms, front.current_submap_keyframes(), front.FinishedSubmaps(),
@@ -179,6 +209,7 @@ int RunFront(const FrontRunOptions& o, const std::atomic<bool>* stop) {
     front.Finish();
     notifier.Stopping();
     if (!pub.Finish(front.FinishedSubmaps(), by_signal)) return kExitError;
+    if (const std::string g = front.GyroSummary(); !g.empty()) spdlog::info("front: {}", g);
     spdlog::info("front: done: {} frames ({} tracked by the front), {} passed over by the stream, {} unreadable, "
                  "{} submaps",
                  n, used, n - used, stream->unreadable(), front.FinishedSubmaps().size());

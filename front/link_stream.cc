@@ -42,6 +42,19 @@ class LinkStream : public FrameStream {
     return b;
   }
   nlohmann::json Detail() const override { return link_->stats().ToJson(); }
+  std::vector<ImuSample> TakeImu() override {
+    std::vector<ImuSample> out;
+    for (const LinkImuSample& x : link_->TakeImu()) {
+      ImuSample s;
+      s.t = x.ground_us * 1000 + wall_minus_mono_ns_;  // the frames' clock
+      for (int k = 0; k < 3; ++k) {
+        s.gyro[k] = x.gyro[k];
+        s.accel[k] = x.accel[k];
+      }
+      out.push_back(s);
+    }
+    return out;
+  }
   uint64_t unreadable() const override { return unreadable_; }
   bool can_halt() const override { return true; }
   bool SetHalt(bool halt) override {

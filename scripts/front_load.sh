@@ -6,7 +6,8 @@
 # worst run, the figures of #23's load target (every run >= 98 %, <= 0.3 %).
 #   scripts/front_load.sh [SCENARIO=smooth] [SEEDS="1 2 3 4"] [RUNS=3] [BUSY=2] [SIZE=640x480] [OUT=/tmp/rumi-load]
 # Extra rumi-front flags go in FRONT_FLAGS (e.g. FRONT_FLAGS=--sync); a YAML
-# file in FRONT_YAML (a front: section) is added to the camera config.
+# file in FRONT_YAML (a front: section) is added to the camera config; IMU=1
+# hands the sequence's imu.csv to the front (its gyro prior).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scenario=${1:-smooth}
@@ -36,7 +37,9 @@ for seed in $seeds; do
     cp "$seq/camera.yaml" "$cfg"
     [ -z "${FRONT_YAML:-}" ] || cat "$FRONT_YAML" >> "$cfg"
     # shellcheck disable=SC2086
-    build/bin/rumi-front --dataset tum "$seq" --config "$cfg" --bench ${FRONT_FLAGS:-} \
+    imu_flags=()
+    [ "${IMU:-0}" = 0 ] || imu_flags=(--imu "$seq/imu.csv")
+    build/bin/rumi-front --dataset tum "$seq" --config "$cfg" --bench ${FRONT_FLAGS:-} "${imu_flags[@]}" \
       --out "$out/${scenario}${seed}_${size}_run$run" > "$log" 2>&1 || true
     stop_loops
     tracked=$(sed -n 's/^frames [0-9]*, tracked [0-9]* (\([0-9.]*\) %), submaps \([0-9]*\).*/\1 \2/p' "$log")

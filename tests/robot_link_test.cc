@@ -15,6 +15,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <regex>
 #include <string>
 #include <thread>
@@ -158,6 +159,13 @@ TEST_F(RobotLink, LossAndJitterEndToEnd) {
   ASSERT_TRUE(link["clock"]["synced"].get<bool>());
   EXPECT_NEAR(link["clock"]["offset_ms"].get<double>(), sim["clock_offset_ms"].get<double>(), 5.0);
   EXPECT_GT(link["latency_ms"]["p50"].get<double>(), 20.0);  // at least the link's minimum leg
+  // The robot's IMU (synthesised from the ground truth, 100 Hz) reaches the
+  // front: the gyro predicts the frames' rotation (frames whose IMU batch
+  // was lost get none) and agrees with what vision tracks.
+  ASSERT_TRUE(link.contains("gyro")) << link.dump(1);
+  std::cout << "gyro prior over the link: " << link["gyro"].dump() << std::endl;
+  EXPECT_GT(link["gyro"]["predicted"].get<int>(), 30) << link["gyro"].dump();
+  EXPECT_FALSE(link["gyro"]["disabled"].get<bool>()) << link["gyro"].dump();
   // The per-frame log for the latency plot: one line per frame handed on or dropped.
   std::ifstream csv(dir_ / "link_frames.csv");
   int lines = -1;

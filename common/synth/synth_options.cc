@@ -91,6 +91,8 @@ const OptionSpec<SynthOptions>& SynthOptions::Spec() {
     s->Number("odometry_step_noise", &O::odometry_step_noise, AtLeast(0.0), AtMost(1.0), "odometry: step noise");
     s->Number("odometry_rotation_noise_deg", &O::odometry_rotation_noise_deg, AtLeast(0.0), AtMost(10.0),
               "odometry: rotation noise per frame");
+    s->Number("imu_hz", &O::imu_hz, AtLeast(0.0), AtMost(2000.0), "imu.csv sample rate; 0: no imu.csv");
+    s->Number("imu_gyro_bias", &O::imu_gyro_bias, AtLeast(-1.0), AtMost(1.0), "imu.csv: gyro bias, rad/s, each axis");
     s->Rule([](const O& o) -> std::string {
       if (o.scenario == SynthScenario::kSmooth) return "";
       const int st = o.HardStart(), l = o.HardLength();

@@ -55,6 +55,11 @@ struct SynthOptions {
   double odometry_scale_bias = 0.02;      // every step's length x (1 + bias)
   double odometry_step_noise = 0.05;      // per-axis sigma, fraction of the step length
   double odometry_rotation_noise_deg = 0.1;   // per-axis sigma per frame (random walk)
+  // imu.csv (for `--imu`): gyro and accelerometer from the ground truth of
+  // every frame (dropped ones too), white noise and a constant bias of the
+  // size an uncalibrated MPU6050 shows (about 1 deg/s).
+  double imu_hz = 200.0;
+  double imu_gyro_bias = 0.02;
   double weak_amplitude = 0.06;       // weak / corridor turn: albedo amplitude left
 
   static const OptionSpec<SynthOptions>& Spec();  // a `synth:` style section, keys as the fields

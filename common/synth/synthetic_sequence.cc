@@ -16,6 +16,9 @@
 #include <stdexcept>
 #include <thread>
 
+#include "common/imu.h"
+#include "common/imu_synth.h"
+
 namespace rumi {
 namespace {
 
@@ -511,6 +514,30 @@ std::string FormatOdometry(const SyntheticSequence& seq, const SynthOptions& o) 
   return od.str();
 }
 
+// The IMU: ImuSynth over every frame's ground truth (the body is the camera),
+// its own random stream.
+std::string FormatImu(const SyntheticSequence& seq, const SynthOptions& o) {
+  std::vector<std::pair<Timestamp, Se3>> poses;
+  for (int i = 0; i < seq.num_frames(); ++i) poses.push_back({seq.timestamp(i), seq.T_wc(i)});
+  ImuSynthOptions io;
+  io.gyro_bias = o.imu_gyro_bias;
+  io.seed = o.seed * 0x9E3779B97F4A7C15ull + 0x1A1Aull;
+  ImuSynth synth(poses, io);
+  std::vector<ImuSample> v;
+  const Timestamp step = static_cast<Timestamp>(1e9 / o.imu_hz);
+  for (Timestamp t = poses.front().first; t <= poses.back().first; t += step) {
+    float a[3], g[3];
+    synth.Sample(t, a, g);
+    ImuSample s;
+    s.t = t;
+    s.gyro = Eigen::Vector3d(g[0], g[1], g[2]);
+    s.accel = Eigen::Vector3d(a[0], a[1], a[2]);
+    v.push_back(s);
+  }
+  return FormatImuCsv(v, "synthetic IMU (rumi synth): body = camera, gyro noise " + FormatDouble(io.gyro_noise) +
+                             " rad/s, gyro bias " + FormatDouble(io.gyro_bias) + " rad/s per axis, world z up");
+}
+
 }  // namespace
 
 SynthWriteResult SynthesizeSequence(const SynthOptions& options, const std::string& out_dir) {
@@ -552,6 +579,7 @@ SynthWriteResult SynthesizeSequence(const SynthOptions& options, const std::stri
   WriteTextFile(out / "rgb.txt", rgb.str());
   WriteTextFile(out / "groundtruth.txt", gt.str());
   WriteTextFile(out / "odometry.txt", FormatOdometry(seq, options));
+  if (options.imu_hz > 0 && seq.num_frames() >= 2) WriteTextFile(out / "imu.csv", FormatImu(seq, options));
 
   const PinholeCameraOptions& c = seq.camera();
   std::ostringstream cam;

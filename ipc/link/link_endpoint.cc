@@ -243,7 +243,7 @@ void LinkEndpoint::OnDatagram(const uint8_t* data, size_t len, int64_t now) {
         imu_.push_back(x);
         ++stats_.imu_samples;
       }
-      while (imu_.size() > 20000) imu_.pop_front();  // nobody reads them: keep a minute at 300 Hz
+      while (imu_.size() > 20000) imu_.pop_front();  // a front that stopped reading: keep a minute at 300 Hz
       break;
     case RL_ACK:
       for (auto it = controls_.begin(); it != controls_.end(); ++it) {

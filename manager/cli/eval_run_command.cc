@@ -51,6 +51,7 @@ struct EvalRunArgs {
   std::string sequence;
   bool no_back = false;
   std::string odometry;  // optional pose source handed to rumi-front
+  std::string imu;       // optional IMU file handed to rumi-front
   double timeout_s = 0;  // 0: 600 s + 20 x the sequence duration / rate
   std::string bin_dir;   // default: the folder of this executable
   bool overwrite = false;  // clear a run folder that holds an earlier run
@@ -442,6 +443,7 @@ int RunEval(const EvalRunArgs& a) {
     // Front alone: no consumer will ever attach, so don't wait for one at the end.
     if (a.no_back) front_args.insert(front_args.end(), {"--wait-for-consumers", "0"});
     if (!a.odometry.empty()) front_args.insert(front_args.end(), {"--odometry", a.odometry});
+    if (!a.imu.empty()) front_args.insert(front_args.end(), {"--imu", a.imu});
     const int front = add("rumi-front", with_config(front_args), false);
     std::string why;
     for (int i = 0; i < static_cast<int>(sup.size()); ++i) {
@@ -561,6 +563,9 @@ void AddEvalRunCommand(CLI::App* eval) {
   cmd->add_option("--odometry", a->odometry,
                   "TUM file of a pose source (robot odometry; `rumi synth` writes odometry.txt) for the "
                   "front: the manager then also joins submaps by it; default: vision only")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--imu", a->imu,
+                  "IMU file (EuRoC imu0 columns; `rumi synth` writes imu.csv): the front's gyro prior")
       ->check(CLI::ExistingFile);
   cmd->add_option("--timeout", a->timeout_s,
                   "seconds per run before the processes are killed (default 600 + 20 x replay time)")

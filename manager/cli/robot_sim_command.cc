@@ -26,7 +26,7 @@
 #include "common/timestamp.h"
 #include "common/trajectory.h"
 #include "common/trajectory_plot.h"
-#include "ipc/link/imu_synth.h"
+#include "common/imu_synth.h"
 #include "ipc/link/latency_plot.h"
 #include "ipc/link/link_endpoint.h"
 #include "ipc/link/robot_sim.h"

@@ -138,7 +138,7 @@ void RegisterSynthCommand(CLI::App* app) {
   auto args = std::make_shared<SynthArgs>();
   CLI::App* sub = app->add_subcommand(
       "synth", "generate a challenge sequence with exact ground truth (TUM layout)");
-  sub->add_option("out", args->out, "output folder (rgb/, rgb.txt, groundtruth.txt, camera.yaml, scenario.json)");
+  sub->add_option("out", args->out, "output folder (rgb/, rgb.txt, groundtruth.txt, odometry.txt, imu.csv, camera.yaml, scenario.json)");
   sub->add_option("--scenario", args->scenario, "smooth, blur, dark, drop, weak, kidnap, corridor")
       ->capture_default_str();
   sub->add_option("--seed", args->o.seed, "random seed (same seed -> identical bytes)")->capture_default_str();

@@ -1,4 +1,4 @@
-#include "ipc/link/imu_synth.h"
+#include "common/imu_synth.h"
 
 #include <gtest/gtest.h>
 

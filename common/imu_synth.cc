@@ -1,4 +1,4 @@
-#include "ipc/link/imu_synth.h"
+#include "common/imu_synth.h"
 
 #include <Eigen/Geometry>
 
@@ -20,6 +20,9 @@ Se3 ImuSynth::PoseAt(Timestamp t) const { return *poses_.At(std::clamp(t, poses_
 
 void ImuSynth::Sample(Timestamp t, float accel[3], float gyro[3]) {
   const Timestamp h = 10'000'000;  // 10 ms differences: smoother than 30 Hz poses need
+  // Near the trajectory's ends the window moves inside it (a clamped pose
+  // would read as a jolt).
+  if (poses_.last_time() - poses_.first_time() > 2 * h) t = std::clamp(t, poses_.first_time() + h, poses_.last_time() - h);
   const Se3 p0 = PoseAt(t - h), p1 = PoseAt(t), p2 = PoseAt(t + h);
   const double dt = 2e-2;
   // Body rate: R1^T R2 over 2h, as an angle-axis.
