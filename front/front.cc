@@ -95,10 +95,12 @@ void Front::UpdateGyroBias(const Eigen::Quaterniond& R_cur_last_gyro) {
   // off by more than 1 deg and 30 % of the tracked turn. (Per frame a small
   // image's tracked rotation is noisy, and a sideways step can pass for a
   // turn: a bound on the rate alone switched good gyros off at 320x240.)
+  // Counted after the warm-up: until then the bias may not be learnt (at
+  // 10 fps an 18 deg/s bias is 1.8 deg a frame).
   const double turn = Eigen::AngleAxisd(R_vis).angle();
-  const bool off = aa.angle() > std::max(1.0 * M_PI / 180.0, 0.3 * turn);
+  const bool off = !warming && aa.angle() > std::max(1.0 * M_PI / 180.0, 0.3 * turn);
   gyro_disagree_ = (gyro_disagree_ << 1 | (off ? 1u : 0u)) & ((1u << 30) - 1);
-  if (gyro_checks_ >= 30 && __builtin_popcount(gyro_disagree_) >= 20) {
+  if (__builtin_popcount(gyro_disagree_) >= 20) {
     spdlog::warn("front: the gyro disagrees with the tracked rotation on {} of the last 30 frames: gyro prior off "
                  "(check front.imu_T_bc, the camera's pose in the IMU frame)",
                  __builtin_popcount(gyro_disagree_));
