@@ -19,6 +19,47 @@ std::string StatusDetailJson(const ManagerService& service, const std::string& m
   return j.dump();
 }
 
+SnapshotLink LinkFromStatusJson(const std::string& status_detail_json) {
+  SnapshotLink l;
+  const nlohmann::json j = nlohmann::json::parse(status_detail_json, nullptr, false);
+  if (!j.is_object() || !j.contains("daemon")) return l;
+  const nlohmann::json& d = j["daemon"];
+  if (!d.is_object() || !d.contains("front") || !d["front"].is_object()) return l;
+  const nlohmann::json& k = d["front"].value("link", nlohmann::json());
+  if (!k.is_object()) return l;
+  // A value of the wrong type reads as its default rather than failing the status.
+  auto num = [](const nlohmann::json& o, const char* key) {
+    return o.is_object() && o.contains(key) && o[key].is_number() ? o[key].get<double>() : 0.0;
+  };
+  auto flag = [](const nlohmann::json& o, const char* key) {
+    return o.is_object() && o.contains(key) && o[key].is_boolean() && o[key].get<bool>();
+  };
+  const nlohmann::json none;
+  const nlohmann::json& lat = k.contains("latency_ms") ? k["latency_ms"] : none;
+  const nlohmann::json& clock = k.contains("clock") ? k["clock"] : none;
+  const nlohmann::json& rate = k.contains("rate_control") ? k["rate_control"] : none;
+  const nlohmann::json& gyro = k.contains("gyro") ? k["gyro"] : none;
+  l.present = true;
+  l.robot_heard = flag(k, "robot_heard");
+  l.robot_halted = flag(k, "robot_halted");
+  l.robot_failsafe = flag(k, "robot_failsafe");
+  l.rssi_dbm = static_cast<int>(num(k, "robot_rssi_dbm"));
+  l.frames_delivered = static_cast<int64_t>(num(k, "frames_delivered"));
+  l.frames_dropped = static_cast<int64_t>(num(k, "frames_dropped") + num(k, "frames_overflow"));
+  l.fragments_recovered = static_cast<int64_t>(num(k, "fragments_recovered"));
+  l.latency_p50_ms = num(lat, "p50");
+  l.latency_p95_ms = num(lat, "p95");
+  l.latency_max_ms = num(lat, "max");
+  l.clock_synced = flag(clock, "synced");
+  l.clock_offset_ms = num(clock, "offset_ms");
+  l.asked_fps = num(rate, "asked_fps");
+  l.imu_samples = static_cast<int64_t>(num(k, "imu_samples"));
+  l.imu_gaps = static_cast<int64_t>(num(k, "imu_gaps"));
+  l.gyro_predicted = static_cast<int64_t>(num(gyro, "predicted"));
+  l.gyro_bridged = static_cast<int64_t>(num(gyro, "bridged"));
+  return l;
+}
+
 SnapshotStatus SnapshotMaker::MakeStatus(const ManagerService& service, const std::string& state,
                                          const std::string& status_json) const {
   SnapshotStatus s = last_;
@@ -30,6 +71,7 @@ SnapshotStatus SnapshotMaker::MakeStatus(const ManagerService& service, const st
   s.last_save = st.last_save;
   s.grid = st.grid;
   s.json = status_json;
+  s.link = LinkFromStatusJson(status_json);
   return s;
 }
 
@@ -50,6 +92,7 @@ std::shared_ptr<const MapSnapshot> SnapshotMaker::Make(const ManagerService& ser
   s.status.last_save = st.last_save;
   s.status.grid = st.grid;
   s.status.json = status_json;
+  s.status.link = LinkFromStatusJson(status_json);
 
   const std::vector<int> roots = map.ComponentsBySize();
   auto component_rank = [&](int i) {

@@ -37,5 +37,8 @@ class SnapshotMaker {
 // What the status topic's `json` holds: {"manager": manager_status} plus,
 // under rumid, {"daemon": <state>/status.json} (what `rumi status` shows).
 std::string StatusDetailJson(const ManagerService& service, const std::string& manager_status_json);
+// The robot link's typed figures from that JSON (daemon.front.link); not
+// present when there is no link (or the JSON is not what rumid writes).
+SnapshotLink LinkFromStatusJson(const std::string& status_detail_json);
 
 }  // namespace rumi

@@ -101,6 +101,17 @@ nlohmann::json StatusJson(const SnapshotStatus& s) {
   const nlohmann::json detail = nlohmann::json::parse(s.json, nullptr, false);
   if (detail.is_object())
     for (const auto& [k, v] : detail.items()) j[k] = v;
+  const SnapshotLink& l = s.link;
+  if (l.present)  // the typed fields, as a program reads them off the topic
+    j["link"] = {{"robot_heard", l.robot_heard},       {"robot_halted", l.robot_halted},
+                 {"robot_failsafe", l.robot_failsafe}, {"rssi_dbm", l.rssi_dbm},
+                 {"frames_delivered", l.frames_delivered}, {"frames_dropped", l.frames_dropped},
+                 {"fragments_recovered", l.fragments_recovered},
+                 {"latency_ms", {l.latency_p50_ms, l.latency_p95_ms, l.latency_max_ms}},
+                 {"clock_synced", l.clock_synced},     {"clock_offset_ms", l.clock_offset_ms},
+                 {"asked_fps", l.asked_fps},           {"imu_samples", l.imu_samples},
+                 {"imu_gaps", l.imu_gaps},             {"gyro_predicted", l.gyro_predicted},
+                 {"gyro_bridged", l.gyro_bridged}};
   return j;
 }
 
@@ -121,6 +132,14 @@ void Status(const QueryArgs& a) {
       "  trajectory {} frames, last save {}\n  grid: {}\n",
       s.instance, s.state, r.map_seq, s.submaps_front, s.submaps_back, s.components, s.keyframes, s.points,
       s.trajectory_frames, s.last_save.empty() ? "none yet" : s.last_save, s.grid.empty() ? "none yet" : s.grid);
+  if (const SnapshotLink& l = s.link; l.present)
+    std::cout << fmt::format(
+        "  link: robot {}{}, {} frames delivered, {} dropped, latency p50/p95/max {:.0f}/{:.0f}/{:.0f} ms, clock {}, "
+        "RSSI {} dBm, asked {:.1f} fps, gyro {} predicted, {} bridged\n",
+        l.robot_heard ? (l.robot_halted ? "halted" : "walking") : "not heard", l.robot_failsafe ? " (fail-safe)" : "",
+        l.frames_delivered, l.frames_dropped, l.latency_p50_ms, l.latency_p95_ms, l.latency_max_ms,
+        l.clock_synced ? fmt::format("{:+.1f} ms", l.clock_offset_ms) : std::string("not synced"), l.rssi_dbm,
+        l.asked_fps, l.gyro_predicted, l.gyro_bridged);
   const nlohmann::json detail = nlohmann::json::parse(s.json, nullptr, false);
   if (detail.is_object() && detail.contains("daemon"))  // the table `rumi status` prints on the ground station
     std::cout << FormatDaemonStatus(detail["daemon"], true);

@@ -83,7 +83,7 @@ int main(int argc, char** argv) {
   memset(&request, 0, sizeof request);
   request.client_id = ((uint64_t)getpid() << 32) ^ (uint64_t)time(NULL);
   request.request_id = 1;
-  request.version = 1;
+  request.version = 2;
   request.kind = rumi_dds_KIND_TRAJECTORY;
   request.submap = "";
   long long poses = 0;

@@ -40,6 +40,7 @@ SnapshotStatus FromDds(const rumi_dds_Status& d) {
   s.last_save = Str(d.last_save);
   s.grid = Str(d.grid);
   s.json = Str(d.json);
+  CopyLinkFields(d.link, &s.link);
   return s;
 }
 

@@ -58,6 +58,7 @@ rumi_dds_Status ToDds(const SnapshotStatus& s) {
   d.last_save = C(s.last_save);
   d.grid = C(s.grid);
   d.json = C(s.json);
+  CopyLinkFields(s.link, &d.link);
   return d;
 }
 

@@ -31,6 +31,12 @@ std::shared_ptr<MapSnapshot> MakeSnapshot(int points) {
   s->status.rebuilds = 7;
   s->status.submaps_front = 2;
   s->status.json = "{\"process\":\"manager\"}";
+  s->status.link.present = true;
+  s->status.link.robot_halted = true;
+  s->status.link.frames_delivered = 1234;
+  s->status.link.latency_p95_ms = 87.5;
+  s->status.link.clock_offset_ms = -2500.25;
+  s->status.link.gyro_bridged = 3;
   for (int i = 0; i < points; ++i) s->points.emplace_back(0.01f * (i % 1000), 0.01f * (i / 1000), 0.5f);
   for (int i = 0; i < 400; ++i) {
     const Se3 T(Eigen::Quaterniond(Eigen::AngleAxisd(0.01 * i, Eigen::Vector3d::UnitZ())),
@@ -97,6 +103,14 @@ TEST_F(MapServerTest, AnswersEveryKindFromTheSnapshot) {
   EXPECT_EQ(r.status.state, "running");
   EXPECT_EQ(r.status.rebuilds, 7);
   EXPECT_EQ(r.status.json, snap->status.json);
+  // The robot link's typed fields.
+  EXPECT_TRUE(r.status.link.present);
+  EXPECT_TRUE(r.status.link.robot_halted);
+  EXPECT_FALSE(r.status.link.robot_failsafe);
+  EXPECT_EQ(r.status.link.frames_delivered, 1234);
+  EXPECT_DOUBLE_EQ(r.status.link.latency_p95_ms, 87.5);
+  EXPECT_DOUBLE_EQ(r.status.link.clock_offset_ms, -2500.25);
+  EXPECT_EQ(r.status.link.gyro_bridged, 3);
   EXPECT_EQ(r.map_seq, 7);
 
   q.kind = rumi_dds_KIND_POINTS;

@@ -14,6 +14,40 @@
 
 namespace rumi {
 
+// The robot link's figures from rumid's status (front.link); present false
+// for other sources. The JSON keys are LinkStats::ToJson's.
+struct SnapshotLink {
+  bool present = false, robot_heard = false, robot_halted = false, robot_failsafe = false, clock_synced = false;
+  int rssi_dbm = 0;
+  int64_t frames_delivered = 0, frames_dropped = 0, fragments_recovered = 0;
+  double latency_p50_ms = 0, latency_p95_ms = 0, latency_max_ms = 0, clock_offset_ms = 0, asked_fps = 0;
+  int64_t imu_samples = 0, imu_gaps = 0, gyro_predicted = 0, gyro_bridged = 0;
+};
+
+// SnapshotLink and the DDS type rumi_dds_LinkStatus name their fields alike:
+// one copy serves both directions (map_server.cc, map_client.cc).
+template <class From, class To>
+void CopyLinkFields(const From& f, To* t) {
+  t->present = f.present;
+  t->robot_heard = f.robot_heard;
+  t->robot_halted = f.robot_halted;
+  t->robot_failsafe = f.robot_failsafe;
+  t->rssi_dbm = f.rssi_dbm;
+  t->frames_delivered = f.frames_delivered;
+  t->frames_dropped = f.frames_dropped;
+  t->fragments_recovered = f.fragments_recovered;
+  t->latency_p50_ms = f.latency_p50_ms;
+  t->latency_p95_ms = f.latency_p95_ms;
+  t->latency_max_ms = f.latency_max_ms;
+  t->clock_synced = f.clock_synced;
+  t->clock_offset_ms = f.clock_offset_ms;
+  t->asked_fps = f.asked_fps;
+  t->imu_samples = f.imu_samples;
+  t->imu_gaps = f.imu_gaps;
+  t->gyro_predicted = f.gyro_predicted;
+  t->gyro_bridged = f.gyro_bridged;
+}
+
 struct SnapshotStatus {
   std::string instance;
   std::string state;  // starting | running | rebuilding | done | stopping
@@ -22,6 +56,7 @@ struct SnapshotStatus {
   int submaps_front = 0, submaps_back = 0, components = 0, keyframes = 0, trajectory_frames = 0;
   int64_t points = 0;
   std::string last_save, grid, json;
+  SnapshotLink link;
 };
 
 struct SnapshotKeyframe {

@@ -14,7 +14,7 @@
 
 namespace rumi {
 
-constexpr uint32_t kDdsProtocolVersion = 1;
+constexpr uint32_t kDdsProtocolVersion = 2;  // 2: Status.link
 
 // "" when r can be answered, else the problem ("page_size -3 is negative").
 std::string RequestProblem(const rumi_dds_Request& r, const DdsOptions& o);
