@@ -7,6 +7,7 @@
 // corners) and are rarely fused, so without this a back keyframe that only
 // re-images what the front mapped looks necessary to post-culling.
 #include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 #include "manager/global_map.h"
@@ -29,5 +30,34 @@ struct CrossObservation {
 // goes to the closest descriptor; a front point is found at most once per
 // keyframe. Empty when options.front_search_px == 0.
 std::vector<CrossObservation> SearchFrontPoints(const GlobalMap& map, const ManagerOptions& options);
+
+// The search itself, shared with the revisit fusion (revisit_fusion.h): the
+// ORB keypoints of one keyframe bucketed by position, either those without a
+// map point (a back keyframe's ORB keypoints) or those with one (a front
+// keyframe's mapped corners).
+class KeyframeSearch {
+ public:
+  KeyframeSearch(const Keyframe& kf, const CameraIntrinsics& camera, bool mapped);
+  // The keypoint that best images a point at X (the keyframe's submap frame)
+  // with descriptor `desc`: ORB-SLAM's scale prediction from max_distance
+  // (PointMaxDistance, same units as X), then the closest descriptor within
+  // radius_px x 1.2^level and max_hamming. -1 when none; *hamming its distance.
+  // T_cw: the keyframe's pose to project with (nullptr: its own).
+  int Match(const Eigen::Vector3d& X, const uint8_t* desc, double max_distance, double radius_px, int max_hamming,
+            int* hamming, const Se3* T_cw = nullptr) const;
+
+ private:
+  const Keyframe& kf_;
+  const CameraIntrinsics& camera_;
+  int cols_ = 0, rows_ = 0;
+  std::vector<std::vector<int>> cells_;
+};
+
+// A map point's ORB descriptor: its representative, else any observation's;
+// nullptr when it has none. kf_index: keyframe id -> index in s.
+const uint8_t* PointDescriptor(const Submap& s, const MapPoint& p, const std::unordered_map<int64_t, int>& kf_index);
+// ORB-SLAM's scale-invariance distance: the distance from its first observing
+// keyframe times that observation's level scale (0 when unknown).
+double PointMaxDistance(const Submap& s, const MapPoint& p, const std::unordered_map<int64_t, int>& kf_index);
 
 }  // namespace rumi

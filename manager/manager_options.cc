@@ -56,10 +56,27 @@ const OptionSpec<ManagerOptions>& ManagerOptions::Spec() {
               "post-culling: other keyframes that must see a point");
     s->Number("culling_octave_tolerance", &O::culling_octave_tolerance, AtLeast(0), AtMost(31),
               "post-culling: coarser levels that still count");
+    s->Number("culling_revisit_ratio", &O::culling_revisit_ratio, AtLeast(0.0), AtMost(1.0),
+              "post-culling: a front keyframe this share of whose points other submaps see re-maps a known place "
+              "and goes (0: off)");
     s->Number("front_search_px", &O::front_search_px, AtLeast(0.0), AtMost(50.0),
               "front points searched in back keyframes within this radius; 0: off");
     s->Number("front_search_max_hamming", &O::front_search_max_hamming, AtLeast(0), AtMost(256),
               "front point search: descriptor distance");
+    s->Flag("revisit_fusion", &O::revisit_fusion,
+            "fuse the points a front submap maps again where an earlier one of its component mapped them");
+    s->Number("revisit_neighbours", &O::revisit_neighbours, AtLeast(1), AtMost(1000),
+              "revisit fusion: earlier keyframes searched per keyframe");
+    s->Number("revisit_radius", &O::revisit_radius, Above(0.0), AtMost(100.0),
+              "revisit fusion: keyframe centres within this x the median scene depth");
+    s->Number("revisit_max_angle_deg", &O::revisit_max_angle_deg, Above(0.0), AtMost(180.0),
+              "revisit fusion: largest angle between the two optical axes");
+    s->Number("revisit_max_offset", &O::revisit_max_offset, Above(0.0), AtMost(10.0),
+              "revisit fusion: largest distance between the two points, x their depth");
+    s->Number("revisit_wide_px", &O::revisit_wide_px, AtLeast(0.0), AtMost(200.0),
+              "revisit fusion: search radius that places a keyframe against the earlier pass first (0: off)");
+    s->Number("revisit_min_pnp_inliers", &O::revisit_min_pnp_inliers, AtLeast(6), AtMost(100000),
+              "revisit fusion: PnP inliers that place it");
     s->Flag("place_merge", &O::place_merge, "join front submaps of one place by descriptors");
     s->Number("place_max_hamming", &O::place_max_hamming, AtLeast(0), AtMost(256), "place merge: descriptor distance");
     s->Number("place_ratio", &O::place_ratio, Above(0.0), AtMost(1.0), "place merge: nearest / runner-up");

@@ -80,12 +80,36 @@ struct ManagerOptions {
   // code (and rumi's front, local_mapping.cc) allow one level of jitter in
   // the level a corner is detected at. Back SIFT observations are all level 0.
   int culling_octave_tolerance = 1;
+  // Revisit culling (post_culling.h), before the rule above: a front keyframe
+  // at least this share of whose points a living keyframe of an earlier
+  // front submap sees (through fused points) maps a place an earlier pass mapped,
+  // and goes, the newest pass first. The rest of its
+  // points go with it unless others see them. Without it a looped room keeps
+  // every pass. 0: off.
+  double culling_revisit_ratio = 0.5;
   // Before culling, front map points are searched in back keyframes (their
   // ORB keypoints, manager/front_point_search.h) within this radius times
   // 1.2^(predicted level), accepting descriptor distances up to
   // front_search_max_hamming (ORB-SLAM's fusion: 3 px, 50). 0 = off.
   double front_search_px = 3.0;
   int front_search_max_hamming = 50;
+  // Revisit fusion (manager/revisit_fusion.h), with the same matcher: each
+  // front keyframe's mapped corners are searched for the points of the
+  // revisit_neighbours nearest keyframes of earlier front submaps of its
+  // component (centres within revisit_radius x the median scene depth,
+  // optical axes within revisit_max_angle_deg); a match whose own point lies
+  // within revisit_max_offset x its depth of the projected one is fused, so
+  // culling sees a revisited place as one.
+  bool revisit_fusion = true;
+  int revisit_neighbours = 4;
+  double revisit_radius = 0.5;
+  double revisit_max_angle_deg = 30.0;
+  double revisit_max_offset = 0.3;
+  // Before that search, each keyframe is placed against the earlier pass:
+  // matches within revisit_wide_px (x 1.2^level) and PnP RANSAC from the
+  // merged pose, kept when revisit_min_pnp_inliers agree. 0 px: off.
+  double revisit_wide_px = 15.0;
+  int revisit_min_pnp_inliers = 20;
   // Place merge (manager/place_merge.h): front submaps that no back submap
   // joined are matched by the ORB descriptors of their map points (nearest
   // within place_max_hamming bits and below place_ratio times the runner-up),

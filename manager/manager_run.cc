@@ -36,6 +36,9 @@ const OptionSpec<ManagerLoopOptions>& ManagerLoopOptions::Spec() {
               "final save is always whole)");
     s->Number("map_save_max_duty", &O::map_save_max_duty, AtLeast(0.01), AtMost(1.0),
               "largest share of the time spent writing map.rumi and map.rumi.raw");
+    s->Number("bake_after_s", &O::bake_after_s, AtLeast(0.0), AtMost(86400.0),
+              "received submaps unchanged this long (and saved) are baked into the map's base and their raw "
+              "copies let go (0: never)");
     return s;
   }();
   return *spec;
@@ -182,6 +185,7 @@ ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service
   notifier.Ready();
   MapNoticeSender notices(run.ipc);  // tells the front what the map holds (halt/resume)
   auto last_rebuild = start - std::chrono::hours(1);
+  auto last_bake_check = start;
   ManagerExit result = ManagerExit::kProducersDone;
   std::string why;
   // cancel: the stop flag while the loop runs (a rebuild on SIGTERM is
@@ -236,6 +240,10 @@ ManagerExit RunManagerLoop(const ManagerRunOptions& run, ManagerService* service
       // A full disk: try again every 10 s, not every turn.
       last_rebuild = std::chrono::steady_clock::now();
       if (!service->WriteOutputs(&why)) spdlog::error("manager: still cannot save: {}", why);
+    }
+    if (!got && SecondsSince(last_bake_check) >= 1.0) {
+      last_bake_check = std::chrono::steady_clock::now();
+      if (service->BakeSettled(run.loop.bake_after_s) > 0) malloc_trim(0);  // the raw copies' blocks
     }
     notifier.Heartbeat(StatusJson(*service, "idle"));
     publish_status("running");

@@ -41,6 +41,14 @@ struct ManagerLoopOptions {
   // between: rumid's journal holds every submap from the moment it arrives.
   double map_save_interval_s = 30.0;
   double map_save_max_duty = 0.1;
+  // Received submaps unchanged for this long (and saved in the map file)
+  // are baked into the base in their merged, culled form and their raw
+  // copies let go (ManagerService::BakeSettled): a session's memory then
+  // follows the mapped place, not the session's length. Longer than a back
+  // window takes to arrive, so most windows pair with the front submaps
+  // before they are culled. 0: never (every received submap stays raw, as
+  // an evaluation wants).
+  double bake_after_s = 300.0;
   static const OptionSpec<ManagerLoopOptions>& Spec();
 };
 

@@ -21,6 +21,7 @@
 #include "manager/global_trajectory.h"
 #include "ipc/submap_codec.h"
 #include "manager/map_file.h"
+#include "manager/submap_index.h"
 #include "manager/map_grid.h"
 #include "manager/sim3_json.h"
 
@@ -108,6 +109,43 @@ GlobalMap CopyWithout(const GlobalMap& map, const std::vector<SubmapKey>& drop) 
   return out;
 }
 
+namespace {
+// Received submaps that the previous map had joined to submaps of the base
+// keep that placement: a front submap is resent while it grows, and the
+// partner it merged with may have been baked and culled since, unable to pair
+// with it again (a culled back window keeps a few of its keyframes). Its
+// fused links to the base go along, for the point ids its new version holds.
+void CarryPlacements(const GlobalMap& previous, const std::set<SubmapKey>& received, GlobalMap* map) {
+  for (int i = 0; i < int(map->size()); ++i) {
+    if (!received.count(map->Key(i))) continue;
+    const int old_i = previous.Find(map->Key(i));
+    if (old_i < 0) continue;
+    std::map<int, int> base_of;  // previous index -> index in *map, the base members of its old component
+    for (int m : previous.Members(previous.Component(old_i))) {
+      if (received.count(previous.Key(m))) continue;
+      const int n = map->Find(previous.Key(m));
+      if (n >= 0) base_of[m] = n;
+    }
+    if (base_of.empty()) continue;
+    const auto [partner_old, partner] = *base_of.begin();
+    map->entry(i).S_gl =
+        map->ToGlobal(partner) * (previous.ToGlobal(partner_old).Inverse() * previous.ToGlobal(old_i));
+    map->Union(i, partner);
+    const SubmapIndex own(map->submap(i));
+    for (const FusedPoint& f : previous.fused()) {
+      const bool dup = f.dup == old_i, kept = f.kept == old_i;
+      const auto other = base_of.find(dup ? f.kept : kept ? f.dup : -1);
+      if (other == base_of.end()) continue;
+      if (own.Point(dup ? f.dup_point : f.kept_point) < 0) continue;  // gone from the new version
+      FusedPoint g = f;
+      (dup ? g.dup : g.kept) = i;
+      (dup ? g.kept : g.dup) = other->second;
+      map->fused().push_back(g);
+    }
+  }
+}
+}  // namespace
+
 ManagerService::ManagerService(ManagerServiceOptions options) : options_(std::move(options)) {}
 
 bool ManagerService::Start(std::string* why) {
@@ -122,10 +160,9 @@ bool ManagerService::Start(std::string* why) {
   const std::string path = options_.MapPath();
   std::string err;
   if (fs::exists(path)) {
-    if (LoadGlobalMap(path, &base_, &err)) {
-      stats_.base_submaps = int(base_.size());
-      spdlog::info("manager: reloaded {} ({} submaps)", path, base_.size());
-      map_ = CopyWithout(base_, {});
+    if (LoadGlobalMap(path, &map_, &err)) {
+      stats_.base_submaps = int(map_.size());
+      spdlog::info("manager: reloaded {} ({} submaps)", path, map_.size());
     } else if (!MoveAside(path, err, why)) {
       return false;
     }
@@ -142,7 +179,7 @@ bool ManagerService::Start(std::string* why) {
       spdlog::info("manager: reloaded {} received submaps from {}", raw.size(), raw_path);
       // A submap missing from the map file (no usable map file, or a crash
       // between the two saves): the product must be rebuilt.
-      for (size_t i = 0; i < raw.size(); ++i) dirty_ |= base_.Find(raw.Key(int(i))) < 0;
+      for (size_t i = 0; i < raw.size(); ++i) dirty_ |= map_.Find(raw.Key(int(i))) < 0;
     } else if (!MoveAside(raw_path, err, why)) {
       return false;
     }
@@ -174,6 +211,7 @@ bool ManagerService::Start(std::string* why) {
       spdlog::info("manager: reloaded {} submap(s) received after the last save from {}", stats_.journal_reloaded,
                    options_.JournalDir());
   }
+  for (const auto& kv : received_) received_at_[kv.first] = std::chrono::steady_clock::now();
   // Until the first rebuild: keyframes received (before culling) and kept.
   for (const auto& kv : received_) stats_.saved_frames += int(kv.second.keyframes.size());
   for (size_t i = 0; i < map_.size(); ++i) stats_.saved_frames_postculled += int(map_.submap(int(i)).keyframes.size());
@@ -250,6 +288,7 @@ bool ManagerService::AddSubmap(Submap s) {
   }
   if (key.source == SubmapSource::kBack) stats_.back_times.try_emplace(key.id, ManagerStats::BackTimes{WallNowNs(), 0});
   received_fp_.erase(key);
+  received_at_[key] = std::chrono::steady_clock::now();
   auto it = received_.find(key);
   if (it != received_.end()) {
     ++stats_.resends;
@@ -301,10 +340,17 @@ bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel,
   };
   std::vector<SubmapKey> replaced;
   for (const auto& kv : received_) replaced.push_back(kv.first);
-  GlobalMap map = CopyWithout(base_, replaced);
+  // The base: the current map without the received submaps, which are added
+  // again as they arrived.
+  GlobalMap map = CopyWithout(map_, replaced);
   for (const auto& kv : received_) map.AddSubmap(kv.second);
   {
-    std::vector<uint64_t> content(map.size(), 0);  // base_ submaps: hashed by the memo
+    std::set<SubmapKey> received;
+    for (const auto& kv : received_) received.insert(kv.first);
+    CarryPlacements(map_, received, &map);
+  }
+  {
+    std::vector<uint64_t> content(map.size(), 0);  // base submaps: hashed by the memo
     for (const auto& [key, submap] : received_) {
       auto [it, inserted] = received_fp_.try_emplace(key, 0);
       if (inserted) it->second = SubmapFingerprint(submap);
@@ -356,7 +402,13 @@ bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel,
   stats_.saved_frames = keyframes;
   stats_.culling = CullingReport();
   stats_.culling.keyframes_before = stats_.culling.keyframes_after = keyframes;
-  if (options_.post_culling) stats_.culling = CullRedundantKeyframes(&map, options_.manager);
+  if (options_.post_culling) {
+    // Revisit fusion searches the received submaps: the base's links are in
+    // the map from the rebuilds that had them as received.
+    std::vector<bool> received(map.size(), false);
+    for (size_t i = 0; i < map.size(); ++i) received[i] = received_.count(map.Key(int(i))) > 0;
+    stats_.culling = CullRedundantKeyframes(&map, options_.manager, &received);
+  }
   stats_.saved_frames_postculled = stats_.culling.keyframes_after;
   map_ = std::move(map);
   map_dirty_ = true;
@@ -378,6 +430,33 @@ bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel,
                "save raw {:.2f}, save map {:.2f}, other outputs {:.2f}",
                stats_.rebuilds, p.copy, p.merge, p.place, p.odometry, p.culling, p.save_raw, p.save_map, p.outputs);
   return saved;
+}
+
+int ManagerService::BakeSettled(double min_age_s) {
+  if (min_age_s <= 0 || dirty_ || unsaved_ || map_files_pending()) return 0;
+  const auto now = std::chrono::steady_clock::now();
+  std::vector<SubmapKey> settled;
+  for (const auto& kv : received_) {
+    const SubmapKey& key = kv.first;
+    const auto at = received_at_.find(key);
+    const bool old_enough =
+        at != received_at_.end() && std::chrono::duration<double>(now - at->second).count() >= min_age_s;
+    const bool growing = key.source == SubmapSource::kFront && key.id == stats_.front_submap_upto;
+    if (old_enough && !growing && map_.Find(key) >= 0) settled.push_back(key);
+  }
+  if (settled.empty()) return 0;
+  for (const SubmapKey& key : settled) {
+    received_.erase(key);
+    received_fp_.erase(key);
+    received_at_.erase(key);
+  }
+  // The map holds their merged, culled versions and the map file has them;
+  // the raw file still holds them until its next save.
+  raw_dirty_ = true;
+  stats_.baked += int64_t(settled.size());
+  spdlog::info("manager: baked {} settled submap(s) into the base ({} in it, {} received kept raw)", settled.size(),
+               map_.size() - received_.size(), received_.size());
+  return int(settled.size());
 }
 
 bool ManagerService::WriteTrajectories(std::string* why) {
@@ -414,6 +493,7 @@ bool ManagerService::WriteStats(std::string* why) const {
   j["grid"] = stats_.grid;
   j["saved_frames"] = stats_.saved_frames;
   j["saved_frames_postculled"] = stats_.saved_frames_postculled;
+  j["baked"] = stats_.baked;
   j["submaps_front"] = stats_.submaps_front;
   j["submaps_back"] = stats_.submaps_back;
   j["components"] = stats_.components;
@@ -440,6 +520,8 @@ bool ManagerService::WriteStats(std::string* why) const {
   j["points_after_culling"] = stats_.culling.points_after;
   j["culled_back"] = stats_.culling.culled_back;
   j["culled_front"] = stats_.culling.culled_front;
+  j["culled_revisit"] = stats_.culling.culled_revisit;
+  j["revisit_points_fused"] = stats_.culling.revisit_fused;
   j["map_file"] = options_.MapPath();
   nlohmann::json comps = nlohmann::json::array();
   const std::vector<int> roots = map_.ComponentsBySize();
@@ -490,9 +572,9 @@ bool ManagerService::WriteOutputs(std::string* why, bool map_files) {
   const auto start = std::chrono::steady_clock::now();
   auto t0 = start;
   if (map_files && raw_dirty_) {
-    GlobalMap raw;
-    for (const auto& kv : received_) raw.AddSubmap(kv.second);
-    if (!SaveGlobalMap(raw, RawPath(), &err)) {
+    std::vector<const Submap*> raw;
+    for (const auto& kv : received_) raw.push_back(&kv.second);
+    if (!SaveSubmaps(raw, RawPath(), &err)) {
       if (why) *why = err;
       return false;
     }

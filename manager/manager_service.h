@@ -6,9 +6,11 @@
 //
 // Rebuild policy: every received submap is kept as it arrived (the latest
 // version per (source, id); a front submap may be resent while it grows). A
-// rebuild starts from the map loaded at start (the "base", if any) without
-// the submaps that were received again, adds every received submap in its own
-// frame and runs MergeAll from scratch, then culls. Simple and correct for
+// rebuild starts from the "base", the current map without the received
+// submaps (what the map file brought at start, and the settled submaps baked
+// into it, BakeSettled), adds every received submap in its own frame (or
+// where the last map joined it to the base: CarryPlacements) and runs
+// MergeAll, then culls. Simple and correct for
 // resends. A MergeMemo replays the merges whose submaps did not change, so a
 // rebuild computes only those of new or grown submaps; rebuilds are still
 // rate-limited by the caller (RunManagerLoop, manager/manager_run.h).
@@ -62,6 +64,7 @@ struct ManagerStats {
   int saved_frames = 0, saved_frames_postculled = 0;  // keyframes before / after culling
   int submaps_front = 0, submaps_back = 0, components = 0;
   int base_submaps = 0;  // submaps reloaded from the map file at start
+  int64_t baked = 0;     // received submaps baked into the base (BakeSettled)
   int64_t front_submap_upto = -1;  // highest front submap id in the last rebuild
   Timestamp front_submap_upto_end = 0;  // its last frame
   int trajectory_frames = 0;  // frames of merged.txt
@@ -125,6 +128,18 @@ class ManagerService {
   // largest first, merged_0 == merged.txt), manager_stats.json (all atomic).
   // map_files false: all but the map file and the raw submaps.
   bool WriteOutputs(std::string* why, bool map_files = true);
+  // The incremental manager: received submaps that are settled leave the
+  // received set for the base, in their merged and culled form from the
+  // current map, so the map in memory grows with the place, not with the
+  // session (a looped walk revisits one room: revisit fusion lets culling
+  // drop the repeats, baking drops their raw copies; the map holds one
+  // copy of the base, the received set the raw submaps). Settled: unchanged
+  // for min_age_s, not the newest front submap (still growing), and in the
+  // map file already (no rebuild or save pending), so a restart finds it
+  // there. A window that comes later still pairs with a baked front submap
+  // through its tracked frames (pair_tracked_frames). Returns how many were
+  // baked; 0 with min_age_s <= 0.
+  int BakeSettled(double min_age_s);
   // Seconds since the map file and the raw submaps were last written by this
   // service (infinite before its first write: the first rebuild writes them).
   double SecondsSinceMapSave() const;
@@ -145,8 +160,8 @@ class ManagerService {
   bool WriteStats(std::string* why) const;
 
   ManagerServiceOptions options_;
-  GlobalMap base_;  // reloaded at start
   std::map<SubmapKey, Submap> received_;
+  std::map<SubmapKey, std::chrono::steady_clock::time_point> received_at_;  // last version's arrival
   // SubmapFingerprint of each received_ version (merge_memo.h), hashed once
   // per version, not at every rebuild; erased when a version is replaced.
   std::map<SubmapKey, uint64_t> received_fp_;

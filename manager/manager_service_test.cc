@@ -339,6 +339,62 @@ TEST(ManagerService, ReloadedMapTakesNewSubmapsAndResends) {
   EXPECT_EQ(svc.stats().trajectory_frames, 111);
 }
 
+// The incremental manager: settled submaps leave the raw set for the base in
+// their merged, culled form; what arrives later still merges with them, and
+// a restart finds them in the map file.
+TEST(ManagerService, SettledSubmapsAreBakedIntoTheBase) {
+  const auto s = testing::MakeScenario();
+  TempDir dir;
+  std::string why;
+  const auto raw_submaps = [&] {
+    GlobalMap raw;
+    EXPECT_TRUE(LoadGlobalMap(dir / "map.rumi.raw", &raw, &why)) << why;
+    return raw.size();
+  };
+  {
+    ManagerService svc(Options(dir));
+    ASSERT_TRUE(svc.Start(&why)) << why;
+    svc.AddSubmap(s.front_a.submap);
+    svc.AddSubmap(s.back.submap);
+    EXPECT_EQ(svc.BakeSettled(1e-3), 0);  // not rebuilt yet
+    ASSERT_TRUE(svc.Rebuild(&why, nullptr, {}, /*map_files=*/false)) << why;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    EXPECT_EQ(svc.BakeSettled(1e-3), 0);  // not in the map file yet
+    ASSERT_TRUE(svc.WriteOutputs(&why)) << why;
+    EXPECT_EQ(svc.BakeSettled(0), 0);     // off
+    EXPECT_EQ(svc.BakeSettled(3600), 0);  // not old enough
+    // Front A is the newest front submap (it may still grow): only the back goes.
+    EXPECT_EQ(svc.BakeSettled(1e-3), 1);
+    EXPECT_EQ(svc.stats().baked, 1);
+    EXPECT_TRUE(svc.map_files_pending());  // the raw file still holds it
+    ASSERT_TRUE(svc.WriteOutputs(&why)) << why;
+    EXPECT_EQ(raw_submaps(), 1u);
+
+    svc.AddSubmap(s.front_b.submap);
+    ASSERT_TRUE(svc.Rebuild(&why)) << why;
+    EXPECT_EQ(svc.stats().merges, 2);  // B merges with the baked back submap
+    EXPECT_EQ(svc.stats().components, 1);
+    EXPECT_EQ(svc.stats().trajectory_frames, 111);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    EXPECT_EQ(svc.BakeSettled(1e-3), 1);  // A, no longer the newest
+    ASSERT_TRUE(svc.WriteOutputs(&why)) << why;
+    EXPECT_EQ(raw_submaps(), 1u);  // B
+    ASSERT_TRUE(svc.Rebuild(&why)) << why;  // from the base alone: the same map
+    EXPECT_EQ(svc.map().size(), 3u);
+    EXPECT_EQ(svc.stats().components, 1);
+    EXPECT_EQ(svc.stats().trajectory_frames, 111);
+  }
+  // A restart: the base from the map file, B from the raw file.
+  ManagerService svc(Options(dir));
+  ASSERT_TRUE(svc.Start(&why)) << why;
+  EXPECT_EQ(svc.stats().base_submaps, 3);
+  svc.AddSubmap(s.front_b.submap);  // resent by a restarted front
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_EQ(svc.map().size(), 3u);
+  EXPECT_EQ(svc.stats().components, 1);
+  EXPECT_EQ(svc.stats().trajectory_frames, 111);
+}
+
 // A rebuild may leave the map file and the raw submaps for later (the
 // loop's MapSaveDue): the trajectories are current, the big files catch up at
 // the next whole save, and a restart in between loses nothing of the journal.

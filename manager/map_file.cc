@@ -52,27 +52,16 @@ const SubmapSerializer& DefaultSubmapSerializer() {
   return s;
 }
 
-bool SaveGlobalMap(const GlobalMap& map, const std::string& path, std::string* why,
-                   const SubmapSerializer& serializer) {
-  Bytes body;
-  body.Put<uint64_t>(map.size());
-  for (size_t i = 0; i < map.size(); ++i) {
-    const Sim3& S = map.ToGlobal(int(i));
-    const double v[8] = {S.scale(),           S.rotation().x(),    S.rotation().y(),    S.rotation().z(),
-                         S.rotation().w(),    S.translation().x(), S.translation().y(), S.translation().z()};
-    body.PutBytes(v, sizeof(v));
-    body.Put<int64_t>(map.RawParent(int(i)));
-    const std::vector<uint8_t> rec = serializer.Encode(map.submap(int(i)));
-    body.Put<uint64_t>(rec.size());
-    body.PutBytes(rec.data(), rec.size());
-  }
-  body.Put<uint64_t>(map.fused().size());
-  for (const FusedPoint& f : map.fused()) {
-    body.Put<int32_t>(f.dup);
-    body.Put<int32_t>(f.kept);
-    body.Put<int64_t>(f.dup_point);
-    body.Put<int64_t>(f.kept_point);
-  }
+namespace {
+
+// The file is built in one buffer: the header with placeholders, then the
+// body, then the body's size and checksum patched in (no second copy of a map
+// that is hundreds of MB in a long session). Entry i: its submap, Sim(3) and
+// union-find parent.
+template <typename SubmapAt, typename Sim3At, typename ParentAt>
+bool SaveEntries(size_t n, const SubmapAt& submap, const Sim3At& sim3, const ParentAt& parent,
+                 const std::vector<FusedPoint>& fused, const std::string& path, std::string* why,
+                 const SubmapSerializer& serializer) {
   Bytes file;
   file.PutBytes(kMagic, sizeof(kMagic));
   file.Put<uint32_t>(kGlobalMapFileVersion);
@@ -80,11 +69,53 @@ bool SaveGlobalMap(const GlobalMap& map, const std::string& path, std::string* w
   const std::string name = serializer.Name();
   file.Put<uint64_t>(name.size());
   file.PutBytes(name.data(), name.size());
-  file.Put<uint64_t>(body.data().size());
-  file.Put<uint64_t>(Checksum64(body.data().data(), body.data().size()));
-  file.PutBytes(body.data().data(), body.data().size());
+  const size_t size_at = file.data().size();
+  file.Put<uint64_t>(0);  // body size
+  file.Put<uint64_t>(0);  // body checksum
+  const size_t body_at = file.data().size();
+  file.Put<uint64_t>(n);
+  for (size_t i = 0; i < n; ++i) {
+    const Sim3& S = sim3(i);
+    const double v[8] = {S.scale(),           S.rotation().x(),    S.rotation().y(),    S.rotation().z(),
+                         S.rotation().w(),    S.translation().x(), S.translation().y(), S.translation().z()};
+    file.PutBytes(v, sizeof(v));
+    file.Put<int64_t>(parent(i));
+    const std::vector<uint8_t> rec = serializer.Encode(submap(i));
+    file.Put<uint64_t>(rec.size());
+    file.PutBytes(rec.data(), rec.size());
+  }
+  file.Put<uint64_t>(fused.size());
+  for (const FusedPoint& f : fused) {
+    file.Put<int32_t>(f.dup);
+    file.Put<int32_t>(f.kept);
+    file.Put<int64_t>(f.dup_point);
+    file.Put<int64_t>(f.kept_point);
+  }
+  uint8_t* data = file.data().data();
+  const uint64_t body_size = file.data().size() - body_at;
+  const uint64_t checksum = Checksum64(data + body_at, body_size);
+  std::memcpy(data + size_at, &body_size, sizeof(body_size));
+  std::memcpy(data + size_at + sizeof(body_size), &checksum, sizeof(checksum));
+  return WriteFileAtomically(path, data, file.data().size(), why);
+}
 
-  return WriteFileAtomically(path, file.data().data(), file.data().size(), why);
+}  // namespace
+
+bool SaveGlobalMap(const GlobalMap& map, const std::string& path, std::string* why,
+                   const SubmapSerializer& serializer) {
+  return SaveEntries(
+      map.size(), [&](size_t i) -> const Submap& { return map.submap(int(i)); },
+      [&](size_t i) -> const Sim3& { return map.ToGlobal(int(i)); }, [&](size_t i) { return map.RawParent(int(i)); },
+      map.fused(), path, why, serializer);
+}
+
+bool SaveSubmaps(const std::vector<const Submap*>& submaps, const std::string& path, std::string* why,
+                 const SubmapSerializer& serializer) {
+  static const Sim3 identity;
+  return SaveEntries(
+      submaps.size(), [&](size_t i) -> const Submap& { return *submaps[i]; },
+      [&](size_t) -> const Sim3& { return identity; }, [](size_t i) { return int64_t(i); }, {}, path, why,
+      serializer);
 }
 
 bool LoadGlobalMap(const std::string& path, GlobalMap* map, std::string* why,

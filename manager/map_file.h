@@ -36,6 +36,12 @@ const SubmapSerializer& DefaultSubmapSerializer();
 bool SaveGlobalMap(const GlobalMap& map, const std::string& path, std::string* why,
                    const SubmapSerializer& serializer = DefaultSubmapSerializer());
 
+// The same file holding `submaps` as they are: each its own component with an
+// identity Sim(3), no fused points (the manager's raw submaps, saved without
+// first copying them into a GlobalMap).
+bool SaveSubmaps(const std::vector<const Submap*>& submaps, const std::string& path, std::string* why,
+                 const SubmapSerializer& serializer = DefaultSubmapSerializer());
+
 // On failure returns false with *why naming the file and the problem; *map is
 // untouched.
 bool LoadGlobalMap(const std::string& path, GlobalMap* map, std::string* why,

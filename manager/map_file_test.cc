@@ -69,6 +69,31 @@ TEST_F(MapFileTest, RoundTrip) {
   EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), 1);
 }
 
+// The manager's raw submaps, saved from where they are: the same file as a
+// map holding them unmerged (each its own component, identity Sim(3)s).
+TEST_F(MapFileTest, SubmapsSavedAsTheyAre) {
+  const std::vector<const Submap*> submaps{&s_.back.submap, &s_.front_a.submap};
+  std::string why;
+  ASSERT_TRUE(SaveSubmaps(submaps, path_, &why)) << why;
+  GlobalMap loaded;
+  ASSERT_TRUE(LoadGlobalMap(path_, &loaded, &why)) << why;
+  ASSERT_EQ(loaded.size(), 2u);
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_EQ(loaded.Key(i), (SubmapKey{submaps[size_t(i)]->source, submaps[size_t(i)]->id}));
+    EXPECT_TRUE(loaded.ToGlobal(i).Matrix().isApprox(Eigen::Matrix4d::Identity()));
+    EXPECT_EQ(loaded.submap(i).keyframes.size(), submaps[size_t(i)]->keyframes.size());
+    EXPECT_EQ(loaded.submap(i).points.back().position, submaps[size_t(i)]->points.back().position);
+  }
+  EXPECT_FALSE(loaded.Connected(0, 1));
+  EXPECT_TRUE(loaded.fused().empty());
+  // Byte for byte what SaveGlobalMap writes for the same unmerged submaps.
+  GlobalMap unmerged;
+  for (const Submap* s : submaps) unmerged.AddSubmap(*s);
+  const std::vector<char> direct = ReadAll();
+  ASSERT_TRUE(SaveGlobalMap(unmerged, path_, &why)) << why;
+  EXPECT_EQ(ReadAll(), direct);
+}
+
 TEST_F(MapFileTest, TruncatedFileIsRefusedAndMapKept) {
   std::string why;
   ASSERT_TRUE(SaveGlobalMap(map_, path_, &why)) << why;

@@ -3,13 +3,16 @@
 // of a real run without the three processes.
 //   rumi-merge-replay --map FILE [--config FILE] [--trajectory OUT.txt]
 //                     [--no-frame-pairs] [--no-post-culling]
-//                     [--session-bench OUT_DIR [--rebuild-every N] [--resends]]
+//                     [--session-bench OUT_DIR [--rebuild-every N] [--resends] [--bake]]
 // --session-bench replays a live session instead: the submaps go to a
 // ManagerService (the manager process's core) one by one in the order they
 // ended (with --resends, also each front submap cut as the front resends it
 // while it grows), with a rebuild after every N, and each rebuild prints its
 // time per phase and the process's resident memory (a benchmark of how the
-// manager scales with a long session, without the hour it took).
+// manager scales with a long session, without the hour it took). With
+// --bake, every settled submap is baked into the base after each rebuild (the
+// map files saved first): the manager's incremental mode at its most eager,
+// as if manager.bake_after_s had passed for all but the newest front submap.
 // Prints one line per merge attempt and writes the largest component's
 // trajectory (TUM) like merged.txt. Exit 0 on success, 1 on a runtime error,
 // 2 on a bad command line or config.
@@ -74,7 +77,8 @@ std::vector<SessionEvent> SessionEvents(const GlobalMap& raw, const FrontPublish
   return events;
 }
 
-int SessionBench(const GlobalMap& raw, const RumiConfig& config, const std::string& out, int every, bool resends) {
+int SessionBench(const GlobalMap& raw, const RumiConfig& config, const std::string& out, int every, bool resends,
+                 bool bake) {
   const std::vector<SessionEvent> events = SessionEvents(raw, resends ? &config.publisher : nullptr);
   ManagerServiceOptions so;
   so.manager = config.manager;
@@ -90,7 +94,8 @@ int SessionBench(const GlobalMap& raw, const RumiConfig& config, const std::stri
     return 1;
   }
   std::cout << "rebuild\tsubmaps\tkeyframes\tkept\tcomponents\tcomputed\treplayed\ttotal_s\tcopy_s\tmerge_s\t"
-               "place_s\todometry_s\tculling_s\tfront_search_s\tsave_raw_s\tsave_map_s\toutputs_s\trss_mib\n";
+               "place_s\todometry_s\tculling_s\tfront_search_s\trevisit_s\trevisit_fused\tsave_raw_s\tsave_map_s\toutputs_s\t"
+               "frames\tbaked\trss_mib\n";
   size_t finished = 0;
   for (size_t i = 0; i < events.size(); ++i) {
     const SessionEvent& e = events[i];
@@ -106,13 +111,21 @@ int SessionBench(const GlobalMap& raw, const RumiConfig& config, const std::stri
       std::cerr << "rumi-merge-replay: " << why << "\n";
       return 1;
     }
+    if (bake) {
+      if (service.map_files_pending() && !service.WriteOutputs(&why)) {
+        std::cerr << "rumi-merge-replay: " << why << "\n";
+        return 1;
+      }
+      service.BakeSettled(1e-9);
+    }
     const ManagerStats& st = service.stats();
     const ManagerStats::Phases& p = st.last_rebuild_phases;
-    std::cout << fmt::format("{}\t{}\t{}\t{}\t{}\t{}\t{}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.0f}\n",
+    std::cout << fmt::format("{}\t{}\t{}\t{}\t{}\t{}\t{}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{}\t{:.2f}\t{:.2f}\t{:.2f}\t{}\t{}\t{:.0f}\n",
                              st.rebuilds, finished, st.saved_frames, st.saved_frames_postculled, st.components,
                              st.merge_attempts - st.merges_replayed, st.merges_replayed, SecondsSince(t0), p.copy,
-                             p.merge, p.place, p.odometry, p.culling, st.culling.seconds_front_search, p.save_raw, p.save_map, p.outputs,
-                             ResidentMiB())
+                             p.merge, p.place, p.odometry, p.culling, st.culling.seconds_front_search,
+                             st.culling.seconds_revisit, st.culling.revisit_fused, p.save_raw, p.save_map, p.outputs,
+                             st.trajectory_frames, st.baked, ResidentMiB())
               << std::flush;
   }
   return 0;
@@ -137,10 +150,14 @@ int Main(int argc, char** argv) {
                  "replay the submaps as a live session into a manager writing to this folder; print each rebuild");
   app.add_option("--rebuild-every", rebuild_every, "with --session-bench: rebuild after every N submaps")
       ->check(CLI::Range(1, 100000));
-  bool resends = false;
+  bool resends = false, bake = false, verbose = false;
+  app.add_flag("--verbose", verbose, "log what the manager logs (info), not only warnings");
   app.add_flag("--resends", resends,
                "with --session-bench: also send each front submap while it grows, as the front resends it "
                "(front.publisher.resend_interval_s); a rebuild counts as one submap received");
+  app.add_flag("--bake", bake,
+               "with --session-bench: bake every settled submap into the base after each rebuild (incremental "
+               "manager)");
   app.add_option("--min-back-observations", min_back_obs,
                  "first drop back-submap points seen by fewer keyframes (what back.min_point_observations does)");
   CLI11_PARSE(app, argc, argv);
@@ -153,7 +170,7 @@ int Main(int argc, char** argv) {
     return 2;
   }
   if (no_frame_pairs) config.manager.pair_tracked_frames = false;
-  spdlog::set_level(spdlog::level::warn);
+  spdlog::set_level(verbose ? spdlog::level::info : spdlog::level::warn);
 
   GlobalMap map;
   std::string why;
@@ -161,7 +178,7 @@ int Main(int argc, char** argv) {
     std::cerr << "rumi-merge-replay: cannot load " << map_path << ": " << why << "\n";
     return 1;
   }
-  if (!bench_dir.empty()) return SessionBench(map, config, bench_dir, rebuild_every, resends);
+  if (!bench_dir.empty()) return SessionBench(map, config, bench_dir, rebuild_every, resends, bake);
   if (complete_px > 0) {
     for (size_t i = 0; i < map.size(); ++i)
       if (map.submap(int(i)).source == SubmapSource::kBack) {

@@ -9,6 +9,7 @@
 #include "common/logging.h"
 #include "common/timestamp.h"
 #include "manager/front_point_search.h"
+#include "manager/revisit_fusion.h"
 #include "manager/submap_index.h"
 
 namespace rumi {
@@ -58,8 +59,15 @@ class PointClusters {
 
 }  // namespace
 
-CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& options) {
+CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& options,
+                                     const std::vector<bool>* revisit_searched) {
   CullingReport rep;
+  {
+    const RevisitFusionReport fusion = FuseRevisitPoints(map, options, revisit_searched);
+    rep.revisit_keyframes_searched = fusion.keyframes_searched;
+    rep.revisit_fused = fusion.fused;
+    rep.seconds_revisit = fusion.seconds;
+  }
   const int n = int(map->size());
   std::vector<SubmapIndex> idx(n);
   for (int s = 0; s < n; ++s) idx[s].Build(map->submap(s));
@@ -124,50 +132,79 @@ CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& optio
   int keyframe_stamp = 0;
   const int min_observers = options.culling_min_observers;
   std::vector<std::pair<int, int>> seen;  // distinct other keyframes (submap, index)
+  // Share of keyframe k of submap s whose points are seen by min_observers
+  // living keyframes other than itself; with other_fronts, by one living
+  // keyframe of an earlier front submap (the point is known to an earlier
+  // pass, which culling may have thinned to fewer observers than the ORB
+  // rule asks; never a later one, or the earlier pass would go for the
+  // keyframe the later one must keep). -1 when it has no point.
+  const auto redundant_share = [&](int s, size_t k, bool other_fronts) {
+    const int needed = other_fronts ? 1 : min_observers;
+    const Keyframe& kf = map->submap(s).keyframes[k];
+    ++keyframe_stamp;
+    // The keyframe's points as (cluster root, octave), each cluster once.
+    std::vector<std::pair<int, uint8_t>> points;
+    const auto list = [&](int root, uint8_t oct) {
+      if (listed_by[size_t(root)] == keyframe_stamp) return;
+      listed_by[size_t(root)] = keyframe_stamp;
+      points.push_back({root, oct});
+    };
+    for (size_t i = 0; i < kf.point_ids.size(); ++i) {
+      if (kf.point_ids[i] < 0) continue;
+      const int p = idx[s].Point(kf.point_ids[i]);
+      if (p < 0) continue;
+      list(clusters.Root(clusters.IdOfIndex(s, p)), i < kf.octaves.size() ? kf.octaves[i] : 0);
+    }
+    const auto ex = extra.find((int64_t(s) << 32) | int64_t(k));
+    if (ex != extra.end())
+      for (const auto& [c, oct] : ex->second) list(clusters.Root(c), oct);
+    if (points.empty()) return -1.0;
+    int redundant = 0;
+    for (const auto& [root, oct] : points) {
+      seen.clear();
+      for (int o = begin[size_t(root)]; o < begin[size_t(root) + 1] && int(seen.size()) < needed; ++o) {
+        const Observer& ob = observers[size_t(o)];
+        if ((ob.submap == s && ob.keyframe == int(k)) ||
+            (other_fronts && (ob.submap >= s || map->submap(ob.submap).source != SubmapSource::kFront)) ||
+            ob.octave > oct + options.culling_octave_tolerance || culled[size_t(ob.submap)][size_t(ob.keyframe)])
+          continue;
+        const std::pair<int, int> key{ob.submap, ob.keyframe};
+        if (std::find(seen.begin(), seen.end(), key) == seen.end()) seen.push_back(key);
+      }
+      if (int(seen.size()) >= needed) ++redundant;
+    }
+    return double(redundant) / double(points.size());
+  };
+  const auto cull = [&](int s, size_t k, int* counter) {
+    culled[size_t(s)][k] = 1;
+    --alive[size_t(s)];
+    ++*counter;
+  };
+  // Revisits first, the newest submap first: a front keyframe whose place an
+  // earlier pass mapped (culling_revisit_ratio of its points fused with
+  // points that other front submaps' keyframes see) goes, and the older pass
+  // stays. Back keyframes do not count here: a back window re-images the
+  // front's keyframes by design, and the rules below cull the back first.
+  if (options.culling_revisit_ratio > 0) {
+    for (int s = n - 1; s >= 0; --s) {
+      const Submap& m = map->submap(s);
+      if (m.source == SubmapSource::kBack) continue;
+      for (size_t k = 0; k < m.keyframes.size() && alive[size_t(s)] > 1; ++k)
+        if (redundant_share(s, k, /*other_fronts=*/true) >= options.culling_revisit_ratio)
+          cull(s, k, &rep.culled_revisit);
+    }
+  }
   for (const bool back_pass : {true, false}) {
     for (int s = 0; s < n; ++s) {
       const Submap& m = map->submap(s);
       if ((m.source == SubmapSource::kBack) != back_pass) continue;
       for (size_t k = 0; k < m.keyframes.size(); ++k) {
-        const Keyframe& kf = m.keyframes[k];
-        if (alive[s] <= 1) break;  // a submap keeps at least one keyframe
-        ++keyframe_stamp;
-        // The keyframe's points as (cluster root, octave), each cluster once.
-        std::vector<std::pair<int, uint8_t>> points;
-        const auto list = [&](int root, uint8_t oct) {
-          if (listed_by[size_t(root)] == keyframe_stamp) return;
-          listed_by[size_t(root)] = keyframe_stamp;
-          points.push_back({root, oct});
-        };
-        for (size_t i = 0; i < kf.point_ids.size(); ++i) {
-          if (kf.point_ids[i] < 0) continue;
-          const int p = idx[s].Point(kf.point_ids[i]);
-          if (p < 0) continue;
-          list(clusters.Root(clusters.IdOfIndex(s, p)), i < kf.octaves.size() ? kf.octaves[i] : 0);
-        }
-        const auto ex = extra.find((int64_t(s) << 32) | int64_t(k));
-        if (ex != extra.end())
-          for (const auto& [c, oct] : ex->second) list(clusters.Root(c), oct);
-        int with_point = 0, redundant = 0;
-        for (const auto& [root, oct] : points) {
-          ++with_point;
-          seen.clear();
-          for (int o = begin[size_t(root)]; o < begin[size_t(root) + 1] && int(seen.size()) < min_observers; ++o) {
-            const Observer& ob = observers[size_t(o)];
-            if ((ob.submap == s && ob.keyframe == int(k)) || ob.octave > oct + options.culling_octave_tolerance ||
-                culled[size_t(ob.submap)][size_t(ob.keyframe)])
-              continue;
-            const std::pair<int, int> key{ob.submap, ob.keyframe};
-            if (std::find(seen.begin(), seen.end(), key) == seen.end()) seen.push_back(key);
-          }
-          if (int(seen.size()) >= min_observers) ++redundant;
-        }
-        if (back_pass && with_point > 0) back_shares.push_back(double(redundant) / with_point);
-        if (with_point > 0 && redundant >= options.culling_redundant_ratio * with_point) {
-          culled[s][k] = 1;
-          --alive[s];
-          (back_pass ? rep.culled_back : rep.culled_front) += 1;
-        }
+        if (alive[size_t(s)] <= 1) break;  // a submap keeps at least one keyframe
+        if (culled[size_t(s)][k]) continue;
+        const double share = redundant_share(s, k, /*other_fronts=*/false);
+        if (share < 0) continue;
+        if (back_pass) back_shares.push_back(share);
+        if (share >= options.culling_redundant_ratio) cull(s, k, back_pass ? &rep.culled_back : &rep.culled_front);
       }
     }
   }
@@ -231,10 +268,10 @@ CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& optio
                                return after[f.dup].Point(f.dup_point) < 0 || after[f.kept].Point(f.kept_point) < 0;
                              }),
               fused.end());
-  spdlog::info("post-culling: saved keyframes {} -> {} ({} back, {} front culled), points {} -> {}, {} front "
-               "points found in back keyframes",
-               rep.keyframes_before, rep.keyframes_after, rep.culled_back, rep.culled_front, rep.points_before,
-               rep.points_after, rep.front_points_found);
+  spdlog::info("post-culling: saved keyframes {} -> {} ({} back, {} front, {} revisit culled), points {} -> {}, {} front "
+               "points found in back keyframes, {} revisit points fused ({:.2f} s)",
+               rep.keyframes_before, rep.keyframes_after, rep.culled_back, rep.culled_front, rep.culled_revisit, rep.points_before,
+               rep.points_after, rep.front_points_found, rep.revisit_fused, rep.seconds_revisit);
   return rep;
 }
 
