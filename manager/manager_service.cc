@@ -407,7 +407,8 @@ bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel,
     // the map from the rebuilds that had them as received.
     std::vector<bool> received(map.size(), false);
     for (size_t i = 0; i < map.size(); ++i) received[i] = received_.count(map.Key(int(i))) > 0;
-    stats_.culling = CullRedundantKeyframes(&map, options_.manager, &received);
+    stats_.culling = CullRedundantKeyframes(&map, options_.manager, &received, &revisit_memo_);
+    revisit_memo_.Retain(map, received);
   }
   stats_.saved_frames_postculled = stats_.culling.keyframes_after;
   map_ = std::move(map);
@@ -522,6 +523,8 @@ bool ManagerService::WriteStats(std::string* why) const {
   j["culled_front"] = stats_.culling.culled_front;
   j["culled_revisit"] = stats_.culling.culled_revisit;
   j["revisit_points_fused"] = stats_.culling.revisit_fused;
+  j["revisit_keyframes_placed"] = stats_.culling.revisit_keyframes_placed;
+  j["revisit_submaps_replayed"] = stats_.culling.revisit_submaps_replayed;
   j["map_file"] = options_.MapPath();
   nlohmann::json comps = nlohmann::json::array();
   const std::vector<int> roots = map_.ComponentsBySize();

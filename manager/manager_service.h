@@ -167,6 +167,7 @@ class ManagerService {
   std::map<SubmapKey, uint64_t> received_fp_;
   PlaceMergeMemo place_memo_;  // place-merge rejections, kept across rebuilds
   MergeMemo merge_memo_;       // merges of unchanged submaps, replayed
+  RevisitMemo revisit_memo_;   // revisit-fusion links of unchanged submaps
   GlobalMap map_;  // current product
   bool dirty_ = false;
   bool raw_dirty_ = false;  // received_ changed since the raw file was written

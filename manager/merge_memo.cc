@@ -49,6 +49,16 @@ uint64_t MergeMemo::KeyHash(const Key& key) {
   return h.value();
 }
 
+uint64_t KeyframePoseFingerprint(const Submap& s) {
+  Hasher h;
+  h.Add(s.keyframes.size());
+  for (const Keyframe& kf : s.keyframes) {
+    h.Add(kf.id);
+    h.Add(kf.T_cw);
+  }
+  return h.value();
+}
+
 uint64_t SubmapFingerprint(const Submap& s) {
   Hasher h;
   h.Add(int(s.source));

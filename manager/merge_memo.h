@@ -29,6 +29,9 @@ namespace rumi {
 // octaves, point positions and observations, frame records, odometry
 // (descriptors are not hashed; they never change without the rest).
 uint64_t SubmapFingerprint(const Submap& s);
+// Hash of the keyframe ids and poses only: what a merge's edit (welding)
+// changes without changing any count.
+uint64_t KeyframePoseFingerprint(const Submap& s);
 
 // What a merge changed in its front submap (index, new value), each list
 // sorted by index: keyframe poses and point positions (fusing, welding) and

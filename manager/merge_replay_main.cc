@@ -94,7 +94,7 @@ int SessionBench(const GlobalMap& raw, const RumiConfig& config, const std::stri
     return 1;
   }
   std::cout << "rebuild\tsubmaps\tkeyframes\tkept\tcomponents\tcomputed\treplayed\ttotal_s\tcopy_s\tmerge_s\t"
-               "place_s\todometry_s\tculling_s\tfront_search_s\trevisit_s\trevisit_fused\tsave_raw_s\tsave_map_s\toutputs_s\t"
+               "place_s\todometry_s\tculling_s\tfront_search_s\trevisit_s\trevisit_fused\trevisit_replayed\tsave_raw_s\tsave_map_s\toutputs_s\t"
                "frames\tbaked\trss_mib\n";
   size_t finished = 0;
   for (size_t i = 0; i < events.size(); ++i) {
@@ -120,11 +120,11 @@ int SessionBench(const GlobalMap& raw, const RumiConfig& config, const std::stri
     }
     const ManagerStats& st = service.stats();
     const ManagerStats::Phases& p = st.last_rebuild_phases;
-    std::cout << fmt::format("{}\t{}\t{}\t{}\t{}\t{}\t{}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{}\t{:.2f}\t{:.2f}\t{:.2f}\t{}\t{}\t{:.0f}\n",
+    std::cout << fmt::format("{}\t{}\t{}\t{}\t{}\t{}\t{}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{:.2f}\t{}\t{}\t{:.2f}\t{:.2f}\t{:.2f}\t{}\t{}\t{:.0f}\n",
                              st.rebuilds, finished, st.saved_frames, st.saved_frames_postculled, st.components,
                              st.merge_attempts - st.merges_replayed, st.merges_replayed, SecondsSince(t0), p.copy,
                              p.merge, p.place, p.odometry, p.culling, st.culling.seconds_front_search,
-                             st.culling.seconds_revisit, st.culling.revisit_fused, p.save_raw, p.save_map, p.outputs,
+                             st.culling.seconds_revisit, st.culling.revisit_fused, st.culling.revisit_submaps_replayed, p.save_raw, p.save_map, p.outputs,
                              st.trajectory_frames, st.baked, ResidentMiB())
               << std::flush;
   }

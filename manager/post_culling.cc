@@ -60,12 +60,14 @@ class PointClusters {
 }  // namespace
 
 CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& options,
-                                     const std::vector<bool>* revisit_searched) {
+                                     const std::vector<bool>* revisit_searched, RevisitMemo* revisit_memo) {
   CullingReport rep;
   {
-    const RevisitFusionReport fusion = FuseRevisitPoints(map, options, revisit_searched);
+    const RevisitFusionReport fusion = FuseRevisitPoints(map, options, revisit_searched, revisit_memo);
     rep.revisit_keyframes_searched = fusion.keyframes_searched;
+    rep.revisit_keyframes_placed = fusion.keyframes_corrected;
     rep.revisit_fused = fusion.fused;
+    rep.revisit_submaps_replayed = fusion.submaps_replayed;
     rep.seconds_revisit = fusion.seconds;
   }
   const int n = int(map->size());

@@ -14,6 +14,7 @@
 // so the global trajectory keeps it.
 #include "manager/global_map.h"
 #include "manager/manager_options.h"
+#include "manager/revisit_fusion.h"
 
 namespace rumi {
 
@@ -25,7 +26,7 @@ struct CullingReport {
   int front_points_found = 0;  // observations added by SearchFrontPoints
   double seconds_front_search = 0;  // of the culling's time, SearchFrontPoints'
   // FuseRevisitPoints, run first: front keyframes searched, points fused.
-  int revisit_keyframes_searched = 0, revisit_fused = 0;
+  int revisit_keyframes_searched = 0, revisit_keyframes_placed = 0, revisit_fused = 0, revisit_submaps_replayed = 0;
   double seconds_revisit = 0;
   // Why back keyframes stay: over the back keyframes examined, the median
   // share of their points seen by culling_min_observers others (culling
@@ -34,8 +35,10 @@ struct CullingReport {
   double back_redundant_share_median = 0;
 };
 
-// revisit_searched: FuseRevisitPoints' `searched` (nullptr: every submap).
+// revisit_searched, revisit_memo: FuseRevisitPoints' `searched` (nullptr:
+// every submap) and `memo`.
 CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& options,
-                                     const std::vector<bool>* revisit_searched = nullptr);
+                                     const std::vector<bool>* revisit_searched = nullptr,
+                                     RevisitMemo* revisit_memo = nullptr);
 
 }  // namespace rumi

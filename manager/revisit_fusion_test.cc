@@ -152,6 +152,102 @@ TEST(RevisitFusion, ADriftedPassIsPlacedBeforeItIsFused) {
   EXPECT_GE(right_with, int(0.99 * with));
 }
 
+// A pass that drifts away from the earlier one as it goes, its keyframes and
+// the points they map alike (its last keyframe 3 m off, the scene 4-9 m
+// away): each placed keyframe's correction is the next one's guess, so the
+// placement follows the drift to the end of the pass, and the depth check
+// compares each corner's point with the candidate moved by that correction.
+TEST(RevisitFusion, APassThatDriftsAwayIsPlacedAlongItsKeyframes) {
+  Revisit r = MakeRevisit(true);
+  Submap& b = r.map.submap(r.ib);
+  const double n = double(b.keyframes.size() - 1);
+  const Sim3 S_bg = r.map.ToGlobal(r.ib).Inverse();
+  std::unordered_map<int64_t, Eigen::Vector3d> shift_of;  // keyframe id -> shift in B's frame
+  for (size_t k = 0; k < b.keyframes.size(); ++k) {
+    // 0 -> 3 m along the global x axis, in B's frame and units.
+    const Eigen::Vector3d shift = S_bg.scale() * (S_bg.R() * Eigen::Vector3d(3.0 * double(k) / n, 0, 0));
+    shift_of[b.keyframes[k].id] = shift;
+    Se3 T_wc = b.keyframes[k].T_wc();
+    T_wc = Se3(T_wc.rotation(), T_wc.translation() + shift);
+    b.keyframes[k].T_cw = T_wc.Inverse();
+  }
+  for (MapPoint& p : b.points) p.position += shift_of.at(p.observations.front().keyframe_id);
+  const RevisitFusionReport rep = FuseRevisitPoints(&r.map, ManagerOptions());
+  EXPECT_GE(rep.keyframes_corrected, int(0.9 * b.keyframes.size())) << "of " << b.keyframes.size();
+  int right = 0;
+  for (const FusedPoint& f : r.map.fused()) right += SceneOf(r.b, f.dup_point) == SceneOf(r.a, f.kept_point);
+  EXPECT_GT(rep.fused, 400);
+  EXPECT_GE(right, int(0.99 * rep.fused));
+  std::printf("drifting pass: %d of %zu keyframes placed, %d fused (%d right)\n", rep.keyframes_corrected,
+              b.keyframes.size(), rep.fused, right);
+}
+
+// A placement that moves the camera further from its guess than the depth
+// check allows is refused (PnP agreeing on a wrong pose): with the
+// tolerance at 0.005 x the depth (2-4.5 cm here), the drifted pass of the
+// test above (15 cm off) is not placed.
+TEST(RevisitFusion, APlacementFarFromItsGuessIsRefused) {
+  for (const double offset : {0.3, 0.005}) {
+    Revisit r = MakeRevisit(true, Eigen::Vector3d(0.15, 0.0, 0.0));
+    ManagerOptions o;
+    o.revisit_max_offset = offset;
+    const RevisitFusionReport rep = FuseRevisitPoints(&r.map, o);
+    if (offset > 0.1)
+      EXPECT_GT(rep.keyframes_corrected, 10);
+    else
+      EXPECT_EQ(rep.keyframes_corrected, 0);
+  }
+}
+
+// The memo replays a submap's links while it and the submaps before it are
+// unchanged, and searches it again when one changes.
+TEST(RevisitFusion, TheMemoReplaysUnchangedSubmaps) {
+  RevisitMemo memo;
+  Revisit first = MakeRevisit(true);
+  const RevisitFusionReport searched = FuseRevisitPoints(&first.map, ManagerOptions(), nullptr, &memo);
+  ASSERT_GT(searched.fused, 400);
+  EXPECT_EQ(searched.submaps_replayed, 0);
+
+  Revisit second = MakeRevisit(true);
+  const RevisitFusionReport replayed = FuseRevisitPoints(&second.map, ManagerOptions(), nullptr, &memo);
+  EXPECT_EQ(replayed.submaps_replayed, 2);  // both passes (the first one found nothing before it)
+  EXPECT_EQ(replayed.keyframes_searched, 0);
+  EXPECT_EQ(replayed.fused, searched.fused);
+  ASSERT_EQ(second.map.fused().size(), first.map.fused().size());
+  for (size_t i = 0; i < first.map.fused().size(); ++i) {
+    EXPECT_EQ(second.map.fused()[i].dup_point, first.map.fused()[i].dup_point);
+    EXPECT_EQ(second.map.fused()[i].kept_point, first.map.fused()[i].kept_point);
+  }
+
+  // The earlier pass lost a keyframe (culled and baked): searched again.
+  Revisit third = MakeRevisit(true);
+  third.map.submap(third.ia).keyframes.pop_back();
+  const RevisitFusionReport again = FuseRevisitPoints(&third.map, ManagerOptions(), nullptr, &memo);
+  EXPECT_EQ(again.submaps_replayed, 0);
+  EXPECT_GT(again.keyframes_searched, 0);
+
+  // The new search replaced the old links: the same layout replays its links.
+  Revisit fourth = MakeRevisit(true);
+  fourth.map.submap(fourth.ia).keyframes.pop_back();
+  const RevisitFusionReport replayed_again = FuseRevisitPoints(&fourth.map, ManagerOptions(), nullptr, &memo);
+  EXPECT_EQ(replayed_again.submaps_replayed, 2);
+  EXPECT_EQ(replayed_again.fused, again.fused);
+
+  // A merge's welding moved a keyframe: searched again.
+  Revisit fifth = MakeRevisit(true);
+  fifth.map.submap(fifth.ia).keyframes.pop_back();
+  Keyframe& moved = fifth.map.submap(fifth.ib).keyframes.front();
+  moved.T_cw = Se3(moved.T_cw.rotation(), moved.T_cw.translation() + Eigen::Vector3d(0.001, 0, 0));
+  EXPECT_EQ(FuseRevisitPoints(&fifth.map, ManagerOptions(), nullptr, &memo).submaps_replayed, 1);  // the first pass
+
+  // Entries of submaps no longer searched (baked) or gone from the map go.
+  memo.Retain(third.map, {true, false});
+  ASSERT_EQ(memo.entries().size(), 1u);
+  EXPECT_EQ(memo.entries().begin()->first, third.map.Key(third.ia));
+  memo.Retain(GlobalMap(), {});
+  EXPECT_TRUE(memo.entries().empty());
+}
+
 TEST(RevisitFusion, NothingAcrossComponentsOrWhenOffOrMisplaced) {
   {
     Revisit r = MakeRevisit(false);
@@ -166,15 +262,22 @@ TEST(RevisitFusion, NothingAcrossComponentsOrWhenOffOrMisplaced) {
     o.front_search_px = 0;
     EXPECT_EQ(FuseRevisitPoints(&r.map, o).fused, 0);
   }
-  {
-    // The second pass placed 0.5 m off (the scene is 4-9 m away): its
-    // corners are not where the first pass's points project.
-    Revisit r = MakeRevisit(true, Eigen::Vector3d(0.5, 0.0, 0.0));
-    const int fused = FuseRevisitPoints(&r.map, ManagerOptions()).fused;
+  for (const double off : {0.5, 3.0}) {
+    // The second pass placed 0.5 m off (the scene is 4-9 m away): beyond the
+    // 15 px search, within the 45 px one that follows it, so it is placed
+    // and fused. 3 m off: its corners are nowhere near where the first
+    // pass's points project, and nothing is placed.
+    Revisit r = MakeRevisit(true, Eigen::Vector3d(off, 0.0, 0.0));
+    const RevisitFusionReport rep = FuseRevisitPoints(&r.map, ManagerOptions());
     int right = 0;
     for (const FusedPoint& f : r.map.fused()) right += SceneOf(r.b, f.dup_point) == SceneOf(r.a, f.kept_point);
-    EXPECT_EQ(right, fused);  // what little is fused is still right
-    EXPECT_LT(fused, 20);
+    EXPECT_EQ(right, rep.fused) << off << " m";  // what is fused is right
+    if (off < 1) {
+      EXPECT_GT(rep.fused, 400);
+    } else {
+      EXPECT_EQ(rep.keyframes_corrected, 0);
+      EXPECT_LT(rep.fused, 20);
+    }
   }
 }
 
