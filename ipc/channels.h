@@ -20,7 +20,8 @@ struct IpcOptions {
   std::string instance = "default";  // [A-Za-z0-9_-], at most 32 characters
   int window_slots = 3;
   // One slot holds a whole window: ~ (len + max_s2 + S3) grey images. 48 MiB
-  // is ~160 VGA frames. Segments are tmpfs pages: only touched slots use RAM.
+  // is ~160 VGA frames. Segments are tmpfs pages: only unread messages use
+  // RAM (the consumer frees a large message's pages on release).
   int64_t window_slot_bytes = 48ll << 20;
   int submap_slots = 4;
   int64_t submap_slot_bytes = 96ll << 20;  // a 200-keyframe ORB submap encodes to ~20 MB

@@ -4,6 +4,9 @@
 #include <boost/interprocess/shared_memory_object.hpp>
 #include <spdlog/spdlog.h>
 
+#include <sys/mman.h>
+#include <unistd.h>
+
 #include <chrono>
 #include <cstring>
 #include <new>
@@ -424,7 +427,7 @@ PopStatus RingConsumer::TryPeekOnce(const uint8_t** data, size_t* bytes) {
     if (s == (cursor_ << 2 | kReady)) {
       if (slot->state.compare_exchange_strong(s, cursor_ << 2 | kReading, std::memory_order_acq_rel)) {
         const uint64_t b = slot->bytes.load(std::memory_order_relaxed);
-        if (b > hdr_->slot_bytes) {  // cannot happen with a sane producer; skip it
+        if (b > hdr_->slot_bytes) {  // a consumer died freeing it (FreePages), or a broken producer: skip it
           slot->state.store(cursor_ << 2 | kFree, std::memory_order_release);
         } else {
           *data = Payload(slot);
@@ -471,10 +474,35 @@ PopStatus RingConsumer::Peek(const uint8_t** data, size_t* bytes, double timeout
 void RingConsumer::Release() {
   if (!holding_ || !hdr_) return;
   holding_ = false;
-  SlotAt(hdr_, cursor_)->state.store(cursor_ << 2 | kFree, std::memory_order_release);
+  SlotHeader* slot = SlotAt(hdr_, cursor_);
+  FreePages(slot);
+  slot->state.store(cursor_ << 2 | kFree, std::memory_order_release);
   ++cursor_;
   hdr_->tail.store(cursor_, std::memory_order_release);
   hdr_->popped.fetch_add(1, std::memory_order_relaxed);
+}
+
+void RingConsumer::FreePages(SlotHeader* slot) {
+  // A tmpfs page stays allocated once written, so without this a ring would
+  // hold every slot's largest message for good (the front's resident size
+  // crept up with its submaps). The slot is still ours (kReading): the
+  // producer cannot be writing into it.
+  static const uint64_t page = static_cast<uint64_t>(::sysconf(_SC_PAGESIZE));
+  const auto begin = reinterpret_cast<uintptr_t>(Payload(slot));
+  const uint64_t first = RoundUp(begin, page);
+  const uint64_t last = (begin + slot->bytes.load(std::memory_order_relaxed)) / page * page;
+  if (last <= first || last - first < kFreePagesMinBytes) return;
+  // Killed between here and the release, the next consumer must not get the
+  // zeroed message again as a redelivery: an impossible size makes it skip
+  // the slot (TryPeekOnce).
+  slot->bytes.store(~uint64_t{0}, std::memory_order_release);
+  if (::madvise(reinterpret_cast<void*>(first), last - first, MADV_REMOVE) == 0) {
+    freed_bytes_ += last - first;
+  } else if (!free_pages_failed_) {
+    free_pages_failed_ = true;
+    spdlog::warn("{}: could not free read slots' pages (madvise MADV_REMOVE: {}); the ring keeps them",
+                 name_, std::strerror(errno));
+  }
 }
 
 RingStats RingConsumer::Stats() const {

@@ -211,9 +211,14 @@ class RingConsumer {
   const std::string& last_error() const { return last_error_; }
   RingStats Stats() const;
   const std::string& name() const { return name_; }
+  // Bytes of read messages handed back to the system (Release frees the
+  // pages of a message of at least kFreePagesMinBytes).
+  uint64_t freed_bytes() const { return freed_bytes_; }
+  static constexpr uint64_t kFreePagesMinBytes = 1 << 20;
 
  private:
   bool TryAttach();
+  void FreePages(SlotHeader* slot);
   void Detach();
   PopStatus TryPeekOnce(const uint8_t** data, size_t* bytes);
 
@@ -224,6 +229,8 @@ class RingConsumer {
   uint64_t cursor_ = 0;
   bool holding_ = false;
   uint64_t closed_segments_ = 0;
+  uint64_t freed_bytes_ = 0;
+  bool free_pages_failed_ = false;
   // Generation of the last closed, drained segment counted without attaching
   // (a consumer that starts after its producer finished: rumid's restarts).
   uint64_t counted_closed_generation_ = 0;

@@ -4,6 +4,7 @@
 
 #include <csignal>
 #include <cstring>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <atomic>
 #include <chrono>
@@ -106,6 +107,50 @@ TEST(ShmRing, ProducerNeverOverwritesTheMessageBeingRead) {
   EXPECT_EQ(PushValue(p, 13), PushStatus::kOk);
   EXPECT_EQ(PopValue(c), 11u);
   EXPECT_EQ(PopValue(c), 13u);
+}
+
+// Bytes of tmpfs the segment holds (allocated blocks, not its size).
+int64_t SegmentAllocatedBytes(const std::string& name) {
+  struct stat st {};
+  if (::stat(("/dev/shm/" + name).c_str(), &st) != 0) return -1;
+  return static_cast<int64_t>(st.st_blocks) * 512;
+}
+
+TEST(ShmRing, ReadLargeMessagesGiveTheirPagesBack) {
+  SegmentGuard g{UniqueName("pages")};
+  const size_t big = 8 << 20;
+  RingProducer p(g.name, {3, 16 << 20, OverflowPolicy::kDropNewest});
+  RingConsumer c(g.name);
+  const int64_t empty = SegmentAllocatedBytes(g.name);
+  ASSERT_GE(empty, 0) << "no /dev/shm/" << g.name;
+  // Three large messages in three slots: 24 MiB of pages written.
+  for (uint64_t i = 0; i < 3; ++i) ASSERT_EQ(PushValue(p, 100 + i, big), PushStatus::kOk);
+  EXPECT_GE(SegmentAllocatedBytes(g.name) - empty, static_cast<int64_t>(3 * big));
+  // The message being read keeps its pages until it is released.
+  const uint8_t* d = nullptr;
+  size_t n = 0;
+  ASSERT_EQ(c.Peek(&d, &n), PopStatus::kOk);
+  ASSERT_EQ(n, big);
+  uint64_t v = 0;
+  std::memcpy(&v, d, 8);
+  EXPECT_EQ(v, 100u);
+  EXPECT_EQ(d[big - 1], 0);
+  EXPECT_GE(SegmentAllocatedBytes(g.name) - empty, static_cast<int64_t>(3 * big));
+  c.Release();
+  EXPECT_EQ(PopValue(c), 101u);
+  EXPECT_EQ(PopValue(c), 102u);
+  // All three read: at most a page at each message's ends stays.
+  EXPECT_LT(SegmentAllocatedBytes(g.name) - empty, 1 << 20);
+  EXPECT_GE(c.freed_bytes(), 3 * big - 3 * 8192);
+  // Slot headers survive the freed pages, and the slots are used again.
+  for (uint64_t i = 0; i < 3; ++i) ASSERT_EQ(PushValue(p, 200 + i, big), PushStatus::kOk);
+  for (uint64_t i = 0; i < 3; ++i) EXPECT_EQ(PopValue(c), 200 + i);
+  // Small messages keep their pages (no system call per pose).
+  const uint64_t freed = c.freed_bytes();
+  ASSERT_EQ(PushValue(p, 7, 4096 * 8), PushStatus::kOk);
+  EXPECT_EQ(PopValue(c), 7u);
+  EXPECT_EQ(c.freed_bytes(), freed);
+  EXPECT_EQ(p.Stats().popped, 7u);
 }
 
 TEST(ShmRing, ConsumerBeforeProducerAndProducerCleanExit) {

@@ -271,9 +271,10 @@ CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& optio
                              }),
               fused.end());
   spdlog::info("post-culling: saved keyframes {} -> {} ({} back, {} front, {} revisit culled), points {} -> {}, {} front "
-               "points found in back keyframes, {} revisit points fused ({:.2f} s)",
+               "points found in back keyframes, {} revisit points fused ({} keyframes searched, {} submaps replayed, {:.2f} s)",
                rep.keyframes_before, rep.keyframes_after, rep.culled_back, rep.culled_front, rep.culled_revisit, rep.points_before,
-               rep.points_after, rep.front_points_found, rep.revisit_fused, rep.seconds_revisit);
+               rep.points_after, rep.front_points_found, rep.revisit_fused, rep.revisit_keyframes_searched,
+               rep.revisit_submaps_replayed, rep.seconds_revisit);
   return rep;
 }
 
