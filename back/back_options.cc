@@ -25,6 +25,8 @@ const OptionSpec<BackOptions>& BackOptions::Spec() {
               "per COLMAP step; its process group is killed after it");
     s->Number("min_registered_images", &O::min_registered_images, AtLeast(2), AtMost(100000),
               "smaller models are dropped");
+    s->Number("mapper_min_model_size", &O::mapper_min_model_size, AtLeast(2), AtMost(100000),
+              "COLMAP Mapper.min_model_size: smaller models are discarded while mapping");
     s->Number("min_point_observations", &O::min_point_observations, AtLeast(2), AtMost(100000),
               "points seen by fewer images are dropped");
     s->Number("track_completion_px", &O::track_completion_px, AtLeast(0.0), AtMost(20.0),

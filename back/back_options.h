@@ -25,7 +25,15 @@ struct BackOptions {
   PairSelectionOptions pairs;
   int sequential_overlap = 10;         // neighbours matched by the sequential matcher
   double step_timeout_s = 600.0;       // per COLMAP step; the process group is killed after it
-  int min_registered_images = 3;       // smaller models are dropped (also Mapper.min_model_size)
+  int min_registered_images = 3;       // smaller models are dropped
+  // COLMAP's Mapper.min_model_size (its default, 10; COLMAP lowers it to the
+  // image count for smaller windows). A smaller model is discarded and its
+  // images stay free for the next initial pair. At 3, a 3-image model kept
+  // after a failed start left no initial pair for the rest: a generated
+  // corridor window's retry registered 3 of 71 frames in a rumi eval run
+  // (71 of 71 from the same database at 5 and at 10), so the lost stretch
+  // was never merged.
+  int mapper_min_model_size = 10;
   // Points seen by fewer images are dropped from the back submap: SfM keeps
   // two-view points that ORB-SLAM's map-point rule would cull (2 keeps all).
   int min_point_observations = 3;

@@ -313,7 +313,7 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
                       "--output_path", sparse.string(), "--Mapper.num_threads", threads,
                       "--Mapper.ba_refine_focal_length", "0", "--Mapper.ba_refine_principal_point",
                       "0", "--Mapper.ba_refine_extra_params", "0", "--Mapper.min_model_size",
-                      std::to_string(options_.min_registered_images)},
+                      std::to_string(options_.mapper_min_model_size)},
                      &res.times.mapping_s, &res.times.mapping_cpu_s});
 
     for (Step& step : steps) {

@@ -201,7 +201,7 @@ TEST_F(BackSubmapBuilderTest, ModelsBecomeSubmapsAndArgumentsAreRight) {
         "--SiftExtraction.num_threads 2", "--SiftExtraction.max_num_features 2048",
         "--SiftMatching.num_threads 2", "--Mapper.num_threads 2", "--Mapper.ba_refine_focal_length 0",
         "--Mapper.ba_refine_principal_point 0", "--Mapper.ba_refine_extra_params 0",
-        "--Mapper.min_model_size 3", "matches_importer", "--match_type pairs"}) {
+        "--Mapper.min_model_size 10", "matches_importer", "--match_type pairs"}) {
     EXPECT_NE(args.find(want), std::string::npos) << want << "\nin:\n" << args;
   }
   // The selected pairs, by image name: 5 frames within `overlap` of each
