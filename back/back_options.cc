@@ -27,6 +27,11 @@ const OptionSpec<BackOptions>& BackOptions::Spec() {
               "smaller models are dropped");
     s->Number("mapper_min_model_size", &O::mapper_min_model_size, AtLeast(2), AtMost(100000),
               "COLMAP Mapper.min_model_size: smaller models are discarded while mapping");
+    s->Number("blank_max_stddev", &O::blank_max_stddev, AtLeast(0.0), AtMost(255.0),
+              "frames whose 4x4 block means have at most this grey-level standard deviation are blank; a "
+              "model is cut at a blank stretch (0: never)");
+    s->Number("blank_min_frames", &O::blank_min_frames, AtLeast(1), AtMost(100000),
+              "consecutive blank frames that make a stretch");
     s->Number("min_point_observations", &O::min_point_observations, AtLeast(2), AtMost(100000),
               "points seen by fewer images are dropped");
     s->Number("track_completion_px", &O::track_completion_px, AtLeast(0.0), AtMost(20.0),

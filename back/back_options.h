@@ -34,6 +34,12 @@ struct BackOptions {
   // (71 of 71 from the same database at 5 and at 10), so the lost stretch
   // was never merged.
   int mapper_min_model_size = 10;
+  // A model is cut at a stretch of at least blank_min_frames window frames
+  // that show only noise: the grey-level standard deviation of their 4 x 4
+  // block means is at most blank_max_stddev (a covered lens:
+  // back/blank_cut.h). The sides become back submaps of their own. 0 = never.
+  double blank_max_stddev = 1.0;
+  int blank_min_frames = 3;
   // Points seen by fewer images are dropped from the back submap: SfM keeps
   // two-view points that ORB-SLAM's map-point rule would cull (2 keeps all).
   int min_point_observations = 3;

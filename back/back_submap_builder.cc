@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <unordered_map>
 
+#include "back/blank_cut.h"
 #include "back/keyframe_orb.h"
 #include "back/pair_selection.h"
 #include "common/camera.h"
@@ -442,6 +443,43 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
     adopt_if_larger(std::move(retry), "retry with a lower SIFT threshold failed: ", "first attempt: ", &res.retry_kept);
   }
   res.warnings.insert(res.warnings.end(), at.warnings.begin(), at.warnings.end());
+  if (options_.blank_max_stddev > 0) {
+    std::vector<Timestamp> times;
+    std::vector<bool> blank;
+    for (const WindowFrame& f : window.frames) {
+      times.push_back(f.timestamp);
+      blank.push_back(IsBlankImage(f.image, options_.blank_max_stddev));
+    }
+    const auto stretches = BlankStretches(times, blank, options_.blank_min_frames);
+    std::vector<Built> cut;
+    for (Built& b : at.built) {
+      std::vector<Submap> pieces = CutAtStretches(b.submap, stretches, options_.min_registered_images,
+                                                  options_.min_point_observations);
+      if (pieces.size() == 1 && pieces[0].keyframes.size() == b.submap.keyframes.size()) {
+        cut.push_back(std::move(b));
+        continue;
+      }
+      std::string sizes;
+      for (Submap& p : pieces) {
+        Built piece{std::move(p), b.stats};
+        BackSubmapStats& st = piece.stats;
+        st.registered_images = int(piece.submap.keyframes.size());
+        st.num_points = int(piece.submap.points.size());
+        st.num_observations = 0;
+        for (const MapPoint& mp : piece.submap.points) st.num_observations += int(mp.observations.size());
+        st.mean_track_length = st.num_points > 0 ? double(st.num_observations) / st.num_points : 0.0;
+        sizes += (sizes.empty() ? "" : " + ") + std::to_string(st.registered_images);
+        cut.push_back(std::move(piece));
+      }
+      res.warnings.push_back("a model of " + std::to_string(b.stats.registered_images) +
+                             " frames cut at a blank stretch (the camera saw nothing): " +
+                             (sizes.empty() ? "no side kept" : sizes + " frames kept"));
+    }
+    std::stable_sort(cut.begin(), cut.end(), [](const Built& x, const Built& y) {
+      return x.stats.registered_images > y.stats.registered_images;
+    });
+    at.built = std::move(cut);
+  }
   if (options_.orb_features > 0) {
     OrbExtractorOptions oo;
     oo.num_features = options_.orb_features;

@@ -326,6 +326,45 @@ TEST_F(BackSubmapBuilderTest, AJoinedWindowIsJudgedPartByPart) {
   EXPECT_TRUE(r.filled);
 }
 
+// A model holding frames before and after a covered lens is cut there: each
+// side becomes a back submap of its own.
+TEST_F(BackSubmapBuilderTest, AModelIsCutAtABlankStretch) {
+  window_.frames.clear();
+  cv::RNG rng(7);
+  std::vector<Timestamp> t;
+  for (int i = 0; i < 9; ++i) {
+    WindowFrame f;
+    f.timestamp = 1341847980722988001LL + 33333333LL * i;
+    f.image = cv::Mat(48, 64, CV_8UC1, cv::Scalar(0));
+    if (i < 3 || i > 5) rng.fill(f.image, cv::RNG::UNIFORM, 0, 256);  // frames 3-5: covered
+    window_.frames.push_back(f);
+    t.push_back(f.timestamp);
+  }
+  const fs::path canned = root_ / "canned";
+  WriteCannedModel(canned / "0", window_.camera, {t[0], t[1], t[2], t[6], t[7], t[8]});
+  options_.colmap_path = FakeColmap("if [ $cmd = mapper ]; then cp -r " + canned.string() + "/* $out/; fi");
+  options_.retry_below_registered = 0;
+  options_.orb_features = 0;
+  BackResult r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  ASSERT_EQ(r.submaps.size(), 2u);
+  EXPECT_EQ(r.submaps[0].keyframes.size(), 3u);
+  EXPECT_EQ(r.submaps[1].keyframes.size(), 3u);
+  EXPECT_NE(r.submaps[0].id, r.submaps[1].id);
+  ASSERT_EQ(r.stats.size(), 2u);
+  EXPECT_EQ(r.stats[0].registered_images, 3);
+  EXPECT_EQ(r.num_registered, 6);
+  bool warned = false;
+  for (const std::string& w : r.warnings) warned |= w.find("blank stretch") != std::string::npos;
+  EXPECT_TRUE(warned);
+  // Two blank frames are not a stretch; 0 turns the cut off.
+  window_.frames[5].image = window_.frames[6].image.clone();
+  EXPECT_EQ(BackSubmapBuilder(options_).Build(window_).submaps.size(), 1u);
+  window_.frames[5].image.setTo(0);
+  options_.blank_max_stddev = 0;
+  EXPECT_EQ(BackSubmapBuilder(options_).Build(window_).submaps.size(), 1u);
+}
+
 // The retry is kept only when it is larger; a failing retry leaves the first.
 TEST_F(BackSubmapBuilderTest, FailedOrSmallerRetryKeepsTheFirstModel) {
   std::vector<Timestamp> t;
