@@ -180,7 +180,13 @@ TEST_F(RobotLink, LossAndJitterEndToEnd) {
             0)
       << Slurp(dir_ / "ate.json");
   const nlohmann::json ate = nlohmann::json::parse(Slurp(dir_ / "ate.json"));
-  EXPECT_GE(ate["tracking"]["covered_rate"].get<double>(), 0.8) << ate.dump(1);
+  // A fresh-check run on 2026-11-28 ended at 0.40 (one front submap, no
+  // merge) in 46 s, where local runs take 64-95 s and pass: the logs say why.
+  EXPECT_GE(ate["tracking"]["covered_rate"].get<double>(), 0.8)
+      << ate.dump(1) << "\n--- rumi-back.log\n"
+      << Slurp(state() / "logs" / "rumi-back.log") << "\n--- rumi-manager.log\n"
+      << Slurp(state() / "logs" / "rumi-manager.log") << "\n--- rumi-front.log\n"
+      << Slurp(state() / "logs" / "rumi-front.log");
 }
 
 TEST_F(RobotLink, HierarchicalModeHaltsTheRobotUntilTheMerge) {
