@@ -27,7 +27,10 @@ class BackCliTest : public ::testing::Test {
     idx << "# timestamp filename\n";
     for (int i = 0; i < 4; ++i) {
       const std::string name = "img/" + std::to_string(i) + ".png";
-      cv::imwrite((dir_ / "win" / name).string(), cv::Mat(24, 32, CV_8UC1, cv::Scalar(40 * i)));
+      cv::Mat img(24, 32, CV_8UC1);
+      cv::RNG rng(i + 1);
+      rng.fill(img, cv::RNG::UNIFORM, 0, 256);  // texture: blank frames never reach COLMAP
+      cv::imwrite((dir_ / "win" / name).string(), img);
       idx << "1341847980.72298" << i << " " << name << "\n";
     }
     const fs::path fake = dir_ / "colmap.sh";

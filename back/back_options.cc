@@ -58,6 +58,8 @@ const OptionSpec<BackOptions>& BackOptions::Spec() {
               "peak threshold of the retry; 0: never retry");
     s->Number("retry_below_registered", &O::retry_below_registered, AtLeast(0.0), AtMost(1.0),
               "retry when the largest model holds less than this share of the window");
+    s->Number("retry_first_below_features", &O::retry_first_below_features, AtLeast(0), AtMost(100000),
+              "retry before the fill when a quarter of the frames left out have fewer SIFT features; 0: fill first");
     s->Flag("sift_domain_size_pooling", &O::sift_domain_size_pooling, "DSP-SIFT descriptors");
     s->Choice("mode", &O::mode, {"local", "remote", "both"},
               "where windows are built: here, on rumi-back --remote workers over DDS, or remote with a local fallback");

@@ -82,6 +82,10 @@ struct BackOptions {
   // 0.004, 93/93 at 0.0015 (docs/synth.md).
   double retry_peak_threshold = 0.0015;
   double retry_below_registered = 0.9;
+  // When at least a quarter of the frames the first attempt left in no model
+  // (blank ones aside) have fewer SIFT features than this, the retry goes
+  // before the fill: no pair makes up for missing features. 0 = the fill first.
+  int retry_first_below_features = 100;
   // COLMAP SiftExtraction.domain_size_pooling (DSP-SIFT: descriptors pooled
   // over several patch sizes; CPU extraction only). Off: better on one dark
   // window (lost frames 0.016-0.023 -> 0.011 m), not end to end (docs/back.md).

@@ -11,8 +11,10 @@
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "back/blank_cut.h"
+#include "back/colmap_database.h"
 #include "back/keyframe_orb.h"
 #include "back/pair_selection.h"
 #include "common/camera.h"
@@ -201,13 +203,35 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
   WorkspaceGuard guard(ws, options_.keep_workspaces);
   if (options_.keep_workspaces) res.workspace = ws.string();
 
+  // Blank frames (a covered lens) show only noise: COLMAP gets none of them
+  // (contrast-stretched noise gave SIFT ~330 keypoints per frame to match,
+  // for nothing), a model is not short of them, and they cut models (step 9).
+  std::vector<bool> blank(window.frames.size(), false);
+  if (options_.blank_max_stddev > 0)
+    for (size_t i = 0; i < window.frames.size(); ++i)
+      blank[i] = IsBlankImage(window.frames[i].image, options_.blank_max_stddev);
+  const int num_blank = int(std::count(blank.begin(), blank.end(), true));
+  if (res.num_frames - num_blank < options_.min_registered_images)
+    return finish(BackStatus::kNoModel, std::to_string(num_blank) + " of the window's " +
+                                            std::to_string(res.num_frames) +
+                                            " frames are blank (the camera saw nothing): too few left to map");
+  if (num_blank > 0) spdlog::info("window {}: {} blank frames left out", window.id, num_blank);
+  std::vector<std::pair<Timestamp, Timestamp>> stretches;  // where models are cut (step 9)
+  {
+    std::vector<Timestamp> times;
+    for (const WindowFrame& f : window.frames) times.push_back(f.timestamp);
+    stretches = BlankStretches(times, blank, options_.blank_min_frames);
+  }
+
   // Undistorted images named by timestamp: name order = time order.
   auto t0 = Clock::now();
   std::unordered_map<Timestamp, cv::Mat> colmap_images;  // for the ORB keypoints
   {
     const bool undistort = HasDistortion(window.camera);
     PinholeCamera camera(window.camera);
-    for (const WindowFrame& f : window.frames) {
+    for (size_t i = 0; i < window.frames.size(); ++i) {
+      if (blank[i]) continue;
+      const WindowFrame& f = window.frames[i];
       cv::Mat img = undistort ? camera.UndistortImage(f.image) : f.image;
       if (options_.normalize_contrast) img = StretchContrast(img);
       if (options_.orb_features > 0) colmap_images[f.timestamp] = img;
@@ -227,16 +251,20 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
   const fs::path pair_list = ws / "pairs.txt";
   if (options_.matcher == "pairs") {
     std::vector<SampleSet> sets;
-    for (const WindowFrame& f : window.frames) sets.push_back(f.set);
+    std::vector<int> index;  // of the frames that are not blank
+    for (size_t i = 0; i < window.frames.size(); ++i)
+      if (!blank[i]) sets.push_back(window.frames[i].set), index.push_back(int(i));
     const auto pairs = SelectImagePairs(sets, options_.pairs);
     std::ofstream out(pair_list);
     for (const auto& [i, j] : pairs)
-      out << ColmapImageName(window.frames[i].timestamp) << ' ' << ColmapImageName(window.frames[j].timestamp) << '\n';
+      out << ColmapImageName(window.frames[index[i]].timestamp) << ' '
+          << ColmapImageName(window.frames[index[j]].timestamp) << '\n';
     out.close();
     if (!out) return finish(BackStatus::kIoError, "cannot write " + pair_list.string());
     res.matched_pairs = int(pairs.size());
   } else if (options_.matcher == "exhaustive") {
-    res.matched_pairs = res.num_frames * (res.num_frames - 1) / 2;
+    const int n = res.num_frames - num_blank;
+    res.matched_pairs = n * (n - 1) / 2;
   }
 
   const std::string threads = std::to_string(options_.num_threads);
@@ -256,6 +284,7 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
     std::vector<Built> built;  // largest first
     std::vector<std::string> warnings;
     size_t models = 0;
+    std::string name;  // for the log: "first attempt", "fill", "retry", "fill of the retry"
     int largest() const { return built.empty() ? 0 : built.front().stats.registered_images; }
   };
   // Extraction, matching, mapping and conversion with one SIFT peak
@@ -386,19 +415,27 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
 
   Attempt at = run_attempt(options_.sift_peak_threshold, "");
   if (at.status != BackStatus::kOk) return finish(at.status, at.message);
-  const int frames = static_cast<int>(window.frames.size());
+  at.name = "first attempt";
+  std::vector<Attempt> tried;  // with blank stretches: every attempt that built, in order (each side picks one)
+  if (!stretches.empty()) tried.push_back(at);
+  const int frames = res.num_frames - num_blank;  // that COLMAP saw
   // Whether a part of the window misses too many frames: the model holding
   // most of that part's frames holds less than retry_below_registered of
   // them. A window the queue joined from several (window.joined_at) has one
-  // part per window, as each loss gives COLMAP its own model; otherwise the
+  // part per window, as each loss gives COLMAP its own model, and so has each
+  // side of a blank stretch, where models are cut anyway; otherwise the
   // window is one part and this is its largest model.
+  std::vector<Timestamp> part_bounds = window.joined_at;
+  for (const auto& st : stretches) part_bounds.push_back(st.second + 1);
+  std::sort(part_bounds.begin(), part_bounds.end());
   const auto short_of_frames = [&](const Attempt& a) {
-    std::vector<Timestamp> bounds = window.joined_at;
+    std::vector<Timestamp> bounds = part_bounds;
     bounds.push_back(std::numeric_limits<Timestamp>::max());
     Timestamp from = std::numeric_limits<Timestamp>::min();
     for (const Timestamp to : bounds) {
       int n = 0, best = 0;
-      for (const WindowFrame& f : window.frames) n += f.timestamp >= from && f.timestamp < to;
+      for (size_t i = 0; i < window.frames.size(); ++i)
+        n += !blank[i] && window.frames[i].timestamp >= from && window.frames[i].timestamp < to;
       for (const Built& b : a.built) {
         int in = 0;
         for (const Keyframe& k : b.submap.keyframes) in += k.timestamp >= from && k.timestamp < to;
@@ -413,46 +450,92 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
   auto adopt_if_larger = [&](Attempt next, const std::string& failed, const std::string& before, bool* kept) {
     if (next.status != BackStatus::kOk) {
       res.warnings.push_back(failed + next.message);
-    } else if (next.largest() > at.largest()) {
+      return;
+    }
+    if (!stretches.empty()) tried.push_back(next);
+    if (next.largest() > at.largest()) {
       res.warnings.push_back(before + std::to_string(at.largest()) + " frames in the largest model");
       at = std::move(next);
       *kept = true;
     }
   };
-  // Selected pairs that leave frames out: first the pairs left out, on the
-  // same features (a 53-frame blur window: 48 frames with pairs + retry,
-  // 50 with every pair at the first threshold).
-  if (options_.matcher == "pairs" && options_.retry_below_registered > 0 && short_of_frames(at)) {
+  const bool can_fill = options_.matcher == "pairs" && options_.retry_below_registered > 0;
+  const bool can_retry =
+      options_.retry_peak_threshold > 0 && options_.retry_peak_threshold != options_.sift_peak_threshold;
+  // Selected pairs that leave frames out: every other pair, matched on the
+  // features of attempt `tag` (a 53-frame blur window: 28 frames with the
+  // selected pairs, 51 after). Only the pairs of the frames left out were
+  // not enough: the pairs between frames the model holds give the longer
+  // tracks, and so the 3D points, that the others register on (2026-11-28:
+  // blur seed 2 38 frames instead of 51, kidnap seed 5 42 instead of 52).
+  std::string cancelled;  // the message of a cancelled fill
+  auto fill = [&](const std::string& tag, double peak_threshold) {
     spdlog::info("window {}: {}/{} frames in the largest model; matching the remaining image pairs", window.id,
                  at.largest(), frames);
-    Attempt all = run_attempt(options_.sift_peak_threshold, "", true);
+    Attempt all = run_attempt(peak_threshold, tag, true);
+    all.name = tag.empty() ? "fill" : "fill of the retry";
     res.filled = true;
-    if (all.status == BackStatus::kCancelled) return finish(all.status, all.message);
+    if (all.status == BackStatus::kCancelled) {
+      cancelled = all.message;
+      return false;
+    }
     adopt_if_larger(std::move(all), "matching the remaining pairs failed: ", "selected pairs: ", &res.fill_kept);
+    return true;
+  };
+  // What the first attempt left out decides what comes next. Frames with few
+  // SIFT features at the first threshold (a plain wall) need the lower one,
+  // no pair makes up for missing features, and the textured frames beyond
+  // them stay unlinked too: when at least a quarter of the frames in no model
+  // are such, the retry goes first and the fill only follows if the retry is
+  // still short (a generated corridor window: 16 of the 33 frames in no
+  // model had under 100 features; the fill added 1, the retry all 73).
+  bool texture_poor = false;
+  std::string fill_tag;  // the attempt whose database a later fill matches
+  if (can_fill && can_retry && options_.retry_first_below_features > 0 && short_of_frames(at)) {
+    std::unordered_map<std::string, int> features;
+    if (!ReadColmapKeypointCounts((ws / "database.db").string(), &features, &why)) {
+      spdlog::debug("window {}: {}", window.id, why);
+    } else {
+      std::unordered_set<Timestamp> in_model;
+      for (const Built& b : at.built)
+        for (const Keyframe& k : b.submap.keyframes) in_model.insert(k.timestamp);
+      int missing = 0, poor = 0;
+      for (size_t i = 0; i < window.frames.size(); ++i) {
+        if (blank[i] || in_model.count(window.frames[i].timestamp)) continue;
+        ++missing;
+        const auto it = features.find(ColmapImageName(window.frames[i].timestamp));
+        poor += it == features.end() || it->second < options_.retry_first_below_features;
+      }
+      texture_poor = poor > 0 && 4 * poor >= missing;
+      if (texture_poor)
+        spdlog::info("window {}: {} of the {} frames in no model have fewer than {} SIFT features: the retry "
+                     "goes before the fill", window.id, poor, missing, options_.retry_first_below_features);
+    }
   }
+  if (can_fill && !texture_poor && short_of_frames(at) && !fill("", options_.sift_peak_threshold))
+    return finish(BackStatus::kCancelled, cancelled);
   // Texture-poor windows (a plain corridor wall) give SIFT too few features at
   // the usual threshold: when the largest model misses too many frames, the
   // whole window is tried again with a lower one and the larger model kept.
-  if (options_.retry_peak_threshold > 0 && options_.retry_peak_threshold != options_.sift_peak_threshold &&
-      short_of_frames(at)) {
+  if (can_retry && short_of_frames(at)) {
     spdlog::info("window {}: {}/{} frames in the largest model; retrying with SIFT peak threshold {}", window.id,
                  at.largest(), frames, options_.retry_peak_threshold);
     Attempt retry = run_attempt(options_.retry_peak_threshold, "_retry");
+    retry.name = "retry";
     res.retried = true;
     if (retry.status == BackStatus::kCancelled) return finish(retry.status, retry.message);
+    // A fill after it matches the retry's features (more of them) unless the retry failed or is smaller.
+    if (retry.status == BackStatus::kOk && retry.largest() >= at.largest()) fill_tag = "_retry";
     adopt_if_larger(std::move(retry), "retry with a lower SIFT threshold failed: ", "first attempt: ", &res.retry_kept);
   }
+  if (can_fill && texture_poor && short_of_frames(at) &&
+      !fill(fill_tag, fill_tag.empty() ? options_.sift_peak_threshold : options_.retry_peak_threshold))
+    return finish(BackStatus::kCancelled, cancelled);
   res.warnings.insert(res.warnings.end(), at.warnings.begin(), at.warnings.end());
-  if (options_.blank_max_stddev > 0) {
-    std::vector<Timestamp> times;
-    std::vector<bool> blank;
-    for (const WindowFrame& f : window.frames) {
-      times.push_back(f.timestamp);
-      blank.push_back(IsBlankImage(f.image, options_.blank_max_stddev));
-    }
-    const auto stretches = BlankStretches(times, blank, options_.blank_min_frames);
+  // Every model cut at the blank stretches; `warnings` (if any) says what was cut.
+  const auto cut_models = [&](std::vector<Built> built, std::vector<std::string>* warnings) {
     std::vector<Built> cut;
-    for (Built& b : at.built) {
+    for (Built& b : built) {
       std::vector<Submap> pieces = CutAtStretches(b.submap, stretches, options_.min_registered_images,
                                                   options_.min_point_observations);
       if (pieces.size() == 1 && pieces[0].keyframes.size() == b.submap.keyframes.size()) {
@@ -471,14 +554,53 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
         sizes += (sizes.empty() ? "" : " + ") + std::to_string(st.registered_images);
         cut.push_back(std::move(piece));
       }
-      res.warnings.push_back("a model of " + std::to_string(b.stats.registered_images) +
-                             " frames cut at a blank stretch (the camera saw nothing): " +
-                             (sizes.empty() ? "no side kept" : sizes + " frames kept"));
+      if (warnings)
+        warnings->push_back("a model of " + std::to_string(b.stats.registered_images) +
+                            " frames cut at a blank stretch (the camera saw nothing): " +
+                            (sizes.empty() ? "no side kept" : sizes + " frames kept"));
     }
-    std::stable_sort(cut.begin(), cut.end(), [](const Built& x, const Built& y) {
+    return cut;
+  };
+  if (!stretches.empty()) {
+    // Each side of a stretch takes its models from the attempt that registered
+    // most of it, the earliest on a tie. A fill or a retry that joined the two
+    // places (through a poster on two walls) bent the side it shared with the
+    // first attempt: generated `kidnap` seed 5, the same 38 frames at 0.0026 m
+    // in the first attempt, 0.0118 m after the fill's model was cut.
+    std::vector<std::vector<Built>> pieces;
+    for (Attempt& a : tried) pieces.push_back(cut_models(std::move(a.built), nullptr));
+    const size_t adopted = [&] {
+      for (size_t k = 0; k < tried.size(); ++k)
+        if (tried[k].name == at.name) return k;
+      return size_t{0};
+    }();
+    pieces[adopted] = cut_models(std::move(at.built), &res.warnings);
+    std::vector<Built> kept;
+    for (size_t side = 0; side <= stretches.size(); ++side) {
+      const Timestamp from = side == 0 ? std::numeric_limits<Timestamp>::min() : stretches[side - 1].second;
+      const Timestamp to = side == stretches.size() ? std::numeric_limits<Timestamp>::max() : stretches[side].first;
+      const auto in_side = [&](const Built& b) {
+        const Timestamp t = b.submap.keyframes.front().timestamp;
+        return t > from && t < to;
+      };
+      size_t best = adopted;
+      int best_size = 0;
+      for (size_t k = 0; k < pieces.size(); ++k) {
+        int size = 0;
+        for (const Built& b : pieces[k])
+          if (!b.submap.keyframes.empty() && in_side(b)) size = std::max(size, b.stats.registered_images);
+        if (size > best_size) best = k, best_size = size;
+      }
+      if (best != adopted && best_size > 0)
+        res.warnings.push_back("side " + std::to_string(side + 1) + " of the blank stretches: the " + tried[best].name +
+                               "'s model of " + std::to_string(best_size) + " frames kept");
+      for (Built& b : pieces[best])
+        if (!b.submap.keyframes.empty() && in_side(b)) kept.push_back(std::move(b));
+    }
+    std::stable_sort(kept.begin(), kept.end(), [](const Built& x, const Built& y) {
       return x.stats.registered_images > y.stats.registered_images;
     });
-    at.built = std::move(cut);
+    at.built = std::move(kept);
   }
   if (options_.orb_features > 0) {
     OrbExtractorOptions oo;

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <limits>
 #include <iterator>
+#include <set>
 #include <sstream>
 
 #include "common/orb_extractor.h"
@@ -38,10 +39,12 @@ class BackSubmapBuilderTest : public ::testing::Test {
     window_.camera.fy = 52;
     window_.camera.cx = 31.5;
     window_.camera.cy = 23.25;
+    cv::RNG rng(3);
     for (int i = 0; i < 5; ++i) {
       WindowFrame f;
       f.timestamp = 1341847980722988001LL + 33333333LL * i;
-      f.image = cv::Mat(48, 64, CV_8UC1, cv::Scalar(10 * i));
+      f.image = cv::Mat(48, 64, CV_8UC1);
+      rng.fill(f.image, cv::RNG::UNIFORM, 0, 256);  // texture: a blank frame never counts as missing
       window_.frames.push_back(f);
     }
   }
@@ -59,14 +62,40 @@ class BackSubmapBuilderTest : public ::testing::Test {
   }
   // A fake colmap whose mapper writes a model of 3 of the 5 frames, or of
   // all 5 into a model folder ending in `full`.
-  std::string MapperFewOrAll(const std::string& full) {
+  std::string MapperFewOrAll(const std::string& full, const std::string& before = "") {
     std::vector<Timestamp> t;
     for (const auto& f : window_.frames) t.push_back(f.timestamp);
     const fs::path few = root_ / "few", all = root_ / "all";
     WriteCannedModel(few / "0", window_.camera, {t[0], t[1], t[2]});
     WriteCannedModel(all / "0", window_.camera, t);
-    return FakeColmap("if [ $cmd = mapper ]; then case \"$out\" in *" + full + ") cp -r " + all.string() +
+    return FakeColmap(before + "if [ $cmd = mapper ]; then case \"$out\" in *" + full + ") cp -r " + all.string() +
                       "/* $out/;; *) cp -r " + few.string() + "/* $out/;; esac; fi");
+  }
+  // Shell for a fake colmap: its feature extractor leaves a COLMAP database
+  // where frames `poor` have 20 SIFT keypoints and the others 500.
+  std::string DatabaseWithPoorFrames(const std::set<int>& poor) {
+    std::vector<std::pair<std::string, int>> rows;
+    for (size_t i = 0; i < window_.frames.size(); ++i)
+      rows.push_back({ColmapImageName(window_.frames[i].timestamp), poor.count(int(i)) ? 20 : 500});
+    const fs::path db = root_ / ("canned_" + std::to_string(poor.size()) + ".db");
+    EXPECT_TRUE(WriteCannedColmapDatabase(db, rows));
+    return "if [ $cmd = feature_extractor ]; then cp " + db.string() + " $(tail -n 1 " +
+           (root_ / "args.txt").string() + " | sed 's/.*--database_path \\([^ ]*\\).*/\\1/'); fi\n";
+  }
+  // The window becomes 9 frames of noise whose frames 3-5 are covered (blank); their timestamps.
+  std::vector<Timestamp> CoverFrames3To5() {
+    window_.frames.clear();
+    cv::RNG rng(7);
+    std::vector<Timestamp> t;
+    for (int i = 0; i < 9; ++i) {
+      WindowFrame f;
+      f.timestamp = 1341847980722988001LL + 33333333LL * i;
+      f.image = cv::Mat(48, 64, CV_8UC1, cv::Scalar(0));
+      if (i < 3 || i > 5) rng.fill(f.image, cv::RNG::UNIFORM, 0, 256);
+      window_.frames.push_back(f);
+      t.push_back(f.timestamp);
+    }
+    return t;
   }
   std::string Args() const {
     std::ifstream in(root_ / "args.txt");
@@ -149,6 +178,8 @@ TEST_F(BackSubmapBuilderTest, InvalidWindowsAreRefused) {
 
 TEST_F(BackSubmapBuilderTest, ModelsBecomeSubmapsAndArgumentsAreRight) {
   // Model 0: 3 frames; model 1: 4 frames; model 2: 2 frames (below the minimum).
+  for (size_t i = 0; i < window_.frames.size(); ++i) window_.frames[i].image.setTo(10 * i);  // flat: no ORB corner
+  options_.blank_max_stddev = 0;  // flat frames are blank otherwise
   std::vector<Timestamp> t;
   for (const auto& f : window_.frames) t.push_back(f.timestamp);
   const fs::path canned = root_ / "canned";
@@ -295,6 +326,106 @@ TEST_F(BackSubmapBuilderTest, SelectedPairsFallingShortAreFilledBeforeTheRetry) 
   EXPECT_TRUE(r.retried);
 }
 
+// Frames left out for lack of SIFT features: the retry at the lower threshold
+// goes first, and the fill (every other pair) only if the retry is short.
+TEST_F(BackSubmapBuilderTest, TexturePoorFramesAreRetriedBeforeTheFill) {
+  // Frames 3 and 4 (the two the first model lacks) have 20 features.
+  options_.colmap_path = MapperFewOrAll("sparse_retry", DatabaseWithPoorFrames({3, 4}));
+  BackResult r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  EXPECT_TRUE(r.retried);
+  EXPECT_TRUE(r.retry_kept);
+  EXPECT_FALSE(r.filled);
+  EXPECT_EQ(r.num_registered, 5);
+  std::string args = Args();
+  EXPECT_EQ(args.find("exhaustive_matcher"), std::string::npos) << args;
+  EXPECT_NE(args.find("database_retry.db"), std::string::npos) << args;
+
+  // One of the two is enough (a quarter); none: the fill goes first.
+  fs::remove(root_ / "args.txt");
+  options_.colmap_path = MapperFewOrAll("sparse_retry", DatabaseWithPoorFrames({4}));
+  r = BackSubmapBuilder(options_).Build(window_);
+  EXPECT_FALSE(r.filled);
+  EXPECT_TRUE(r.retry_kept);
+  fs::remove(root_ / "args.txt");
+  options_.colmap_path = MapperFewOrAll("sparse_retry", DatabaseWithPoorFrames({}));
+  r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  EXPECT_TRUE(r.filled);
+  EXPECT_FALSE(r.fill_kept);
+  EXPECT_TRUE(r.retried);
+  args = Args();
+  ASSERT_NE(args.find("exhaustive_matcher"), std::string::npos) << args;
+  EXPECT_LT(args.find("exhaustive_matcher"), args.find("database_retry.db"));
+
+  // 0 turns the decision off: the fill first, as before.
+  fs::remove(root_ / "args.txt");
+  options_.retry_first_below_features = 0;
+  options_.colmap_path = MapperFewOrAll("sparse_retry", DatabaseWithPoorFrames({3, 4}));
+  r = BackSubmapBuilder(options_).Build(window_);
+  EXPECT_TRUE(r.filled);
+  EXPECT_TRUE(r.retried);
+
+  // The retry still short: its own database is filled.
+  fs::remove(root_ / "args.txt");
+  options_.retry_first_below_features = 100;
+  options_.colmap_path = MapperFewOrAll("sparse_retry_all", DatabaseWithPoorFrames({3, 4}));
+  r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  EXPECT_TRUE(r.retried);
+  EXPECT_FALSE(r.retry_kept);  // 3 frames, as the first attempt
+  EXPECT_TRUE(r.filled);
+  EXPECT_TRUE(r.fill_kept);
+  EXPECT_EQ(r.num_registered, 5);
+  args = Args();
+  const size_t exhaustive = args.find("exhaustive_matcher");
+  ASSERT_NE(exhaustive, std::string::npos) << args;
+  EXPECT_NE(args.find("database_retry.db", exhaustive), std::string::npos) << args;
+  EXPECT_TRUE(WorkspaceEmpty());
+}
+
+// Blank frames (a covered lens) cannot register: a model holding every other
+// frame is not short, and nothing runs again.
+TEST_F(BackSubmapBuilderTest, BlankFramesDoNotMakeAModelShort) {
+  window_.frames[3].image.setTo(7);
+  window_.frames[4].image.setTo(7);
+  options_.colmap_path = MapperFewOrAll("sparse_retry");
+  options_.keep_workspaces = true;
+  BackResult r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  EXPECT_FALSE(r.filled);
+  EXPECT_FALSE(r.retried);
+  EXPECT_EQ(r.num_registered, 3);
+  // COLMAP never sees them: no image, no pair.
+  EXPECT_EQ(r.matched_pairs, 3);
+  const std::string blank_name = ColmapImageName(window_.frames[3].timestamp);
+  EXPECT_FALSE(fs::exists(fs::path(r.workspace) / "images" / blank_name));
+  EXPECT_TRUE(fs::exists(fs::path(r.workspace) / "images" / ColmapImageName(window_.frames[2].timestamp)));
+  std::ifstream list(fs::path(r.workspace) / "pairs.txt");
+  const std::string pairs((std::istreambuf_iterator<char>(list)), {});
+  EXPECT_EQ(pairs.find(blank_name), std::string::npos) << pairs;
+  fs::remove_all(r.workspace);
+  options_.keep_workspaces = false;
+  // Too few frames that are not blank: no COLMAP run, and the message says why.
+  window_.frames[2].image.setTo(7);
+  window_.frames[1].image.setTo(7);
+  fs::remove(root_ / "args.txt");
+  r = BackSubmapBuilder(options_).Build(window_);
+  EXPECT_EQ(r.status, BackStatus::kNoModel);
+  EXPECT_NE(r.message.find("4 of the window's 5 frames are blank"), std::string::npos) << r.message;
+  EXPECT_FALSE(fs::exists(root_ / "args.txt"));
+  cv::RNG rng(9);
+  rng.fill(window_.frames[1].image, cv::RNG::UNIFORM, 0, 256);
+  rng.fill(window_.frames[2].image, cv::RNG::UNIFORM, 0, 256);
+  // With the blank test off they count, as before.
+  fs::remove(root_ / "args.txt");
+  options_.blank_max_stddev = 0;
+  r = BackSubmapBuilder(options_).Build(window_);
+  EXPECT_TRUE(r.filled);
+  EXPECT_TRUE(r.retried);
+  EXPECT_EQ(r.num_registered, 5);
+}
+
 // A window the queue joined from two: one model per part is what COLMAP
 // should give, so each part is judged on its own and nothing is matched again
 // (in a stress run a joined 151-frame window spent minutes in the fill).
@@ -329,17 +460,7 @@ TEST_F(BackSubmapBuilderTest, AJoinedWindowIsJudgedPartByPart) {
 // A model holding frames before and after a covered lens is cut there: each
 // side becomes a back submap of its own.
 TEST_F(BackSubmapBuilderTest, AModelIsCutAtABlankStretch) {
-  window_.frames.clear();
-  cv::RNG rng(7);
-  std::vector<Timestamp> t;
-  for (int i = 0; i < 9; ++i) {
-    WindowFrame f;
-    f.timestamp = 1341847980722988001LL + 33333333LL * i;
-    f.image = cv::Mat(48, 64, CV_8UC1, cv::Scalar(0));
-    if (i < 3 || i > 5) rng.fill(f.image, cv::RNG::UNIFORM, 0, 256);  // frames 3-5: covered
-    window_.frames.push_back(f);
-    t.push_back(f.timestamp);
-  }
+  const std::vector<Timestamp> t = CoverFrames3To5();
   const fs::path canned = root_ / "canned";
   WriteCannedModel(canned / "0", window_.camera, {t[0], t[1], t[2], t[6], t[7], t[8]});
   options_.colmap_path = FakeColmap("if [ $cmd = mapper ]; then cp -r " + canned.string() + "/* $out/; fi");
@@ -363,6 +484,55 @@ TEST_F(BackSubmapBuilderTest, AModelIsCutAtABlankStretch) {
   window_.frames[5].image.setTo(0);
   options_.blank_max_stddev = 0;
   EXPECT_EQ(BackSubmapBuilder(options_).Build(window_).submaps.size(), 1u);
+}
+
+// Each side of a blank stretch is judged on its own, as the parts of a joined
+// window are: a model per side is complete (the cut would split one model
+// holding both anyway).
+TEST_F(BackSubmapBuilderTest, EachSideOfABlankStretchIsJudgedOnItsOwn) {
+  const std::vector<Timestamp> t = CoverFrames3To5();
+  const fs::path two = root_ / "two";
+  WriteCannedModel(two / "0", window_.camera, {t[0], t[1], t[2]});
+  WriteCannedModel(two / "1", window_.camera, {t[6], t[7], t[8]});
+  options_.colmap_path = FakeColmap("if [ $cmd = mapper ]; then cp -r " + two.string() + "/* $out/; fi");
+  BackResult r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  EXPECT_FALSE(r.filled);
+  EXPECT_FALSE(r.retried);
+  EXPECT_EQ(r.submaps.size(), 2u);
+  // Two blank frames are no stretch: one part, and 3 of 7 is short.
+  window_.frames[5].image = window_.frames[6].image.clone();
+  r = BackSubmapBuilder(options_).Build(window_);
+  EXPECT_TRUE(r.filled);
+  EXPECT_TRUE(r.retried);
+}
+
+// Each side of a blank stretch takes its model from the attempt that
+// registered most of it, the earliest on a tie: a fill that joined both sides
+// does not replace the first attempt's model of the side they share.
+TEST_F(BackSubmapBuilderTest, EachSideOfABlankStretchKeepsItsBestAttempt) {
+  const std::vector<Timestamp> t = CoverFrames3To5();
+  // The first attempt: side 2 only (keypoints at x 100); the fill: both sides (x 200).
+  const fs::path first = root_ / "first", all = root_ / "all";
+  WriteCannedModel(first / "0", window_.camera, {t[6], t[7], t[8]}, 100.5);
+  WriteCannedModel(all / "0", window_.camera, {t[0], t[1], t[2], t[6], t[7], t[8]}, 200.5);
+  options_.colmap_path = FakeColmap("if [ $cmd = mapper ]; then case \"$out\" in *sparse_all) cp -r " +
+                                    all.string() + "/* $out/;; *) cp -r " + first.string() + "/* $out/;; esac; fi");
+  options_.orb_features = 0;
+  BackResult r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  EXPECT_TRUE(r.filled);
+  EXPECT_TRUE(r.fill_kept);
+  EXPECT_FALSE(r.retried);
+  ASSERT_EQ(r.submaps.size(), 2u);
+  for (const Submap& m : r.submaps) {
+    ASSERT_EQ(m.keyframes.size(), 3u);
+    const bool side2 = m.keyframes.front().timestamp == t[6];
+    EXPECT_FLOAT_EQ(m.keyframes.front().keypoints[0].x(), side2 ? 100.0f : 200.0f) << "side " << (side2 ? 2 : 1);
+  }
+  bool said = false;
+  for (const std::string& w : r.warnings) said |= w.find("first attempt's model of 3 frames kept") != std::string::npos;
+  EXPECT_TRUE(said);
 }
 
 // The retry is kept only when it is larger; a failing retry leaves the first.

@@ -2,12 +2,14 @@
 // Test helpers for the back's process tests: a minimal COLMAP binary model
 // as a fake `colmap mapper` would leave it, the fake `colmap` that leaves
 // it, and a tiny window.
+#include <sqlite3.h>
 #include <sys/stat.h>
 
 #include <filesystem>
 #include <fstream>
 #include <opencv2/core.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/camera.h"
@@ -60,6 +62,28 @@ inline void WriteCannedModel(const std::filesystem::path& dir, const PinholeCame
   }
 }
 
+// Writes a COLMAP database (the tables and columns of COLMAP's schema that
+// the back reads) holding `keypoints`: image name -> keypoint rows.
+inline bool WriteCannedColmapDatabase(const std::filesystem::path& path,
+                                      const std::vector<std::pair<std::string, int>>& keypoints) {
+  std::filesystem::remove(path);
+  sqlite3* db = nullptr;
+  if (sqlite3_open(path.c_str(), &db) != SQLITE_OK) return false;
+  std::string sql =
+      "CREATE TABLE images (image_id INTEGER PRIMARY KEY AUTOINCREMENT NOT NULL, name TEXT NOT NULL UNIQUE, "
+      "camera_id INTEGER NOT NULL);"
+      "CREATE TABLE keypoints (image_id INTEGER PRIMARY KEY NOT NULL, rows INTEGER NOT NULL, "
+      "cols INTEGER NOT NULL, data BLOB);";
+  for (size_t i = 0; i < keypoints.size(); ++i) {
+    const std::string id = std::to_string(i + 1);
+    sql += "INSERT INTO images VALUES (" + id + ", '" + keypoints[i].first + "', 1);";
+    sql += "INSERT INTO keypoints VALUES (" + id + ", " + std::to_string(keypoints[i].second) + ", 6, NULL);";
+  }
+  const bool ok = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr) == SQLITE_OK;
+  sqlite3_close(db);
+  return ok;
+}
+
 // Writes <dir>/colmap.sh, a fake `colmap`: its mapper copies
 // <dir>/canned/<stem of the first image>/ (a WriteCannedModel, if any) into
 // the output. `feature_extractor_sh` is shell run first in every call (its
@@ -77,8 +101,9 @@ inline std::string WriteFakeColmap(const std::filesystem::path& dir, const std::
   return script.string();
 }
 
-// A 64x48 window of 4 flat frames (grey 20 i + id), 33.3 ms apart from t0
-// plus i ns (odd stamps must come back exactly).
+// A 64x48 window of 4 frames of noise (seeded by id and i: not blank, which
+// the back would leave out), 33.3 ms apart from t0 plus i ns (odd stamps must
+// come back exactly).
 inline ImageWindow TinyWindow(int64_t id, Timestamp t0) {
   ImageWindow w;
   w.id = id;
@@ -91,7 +116,9 @@ inline ImageWindow TinyWindow(int64_t id, Timestamp t0) {
   for (int i = 0; i < 4; ++i) {
     WindowFrame f;
     f.timestamp = t0 + 33333333LL * i + i;
-    f.image = cv::Mat(48, 64, CV_8UC1, cv::Scalar(20 * i + id));
+    f.image = cv::Mat(48, 64, CV_8UC1);
+    cv::RNG rng(uint64_t(100 * id + i + 1));
+    rng.fill(f.image, cv::RNG::UNIFORM, 0, 256);
     w.frames.push_back(f);
   }
   return w;
