@@ -533,6 +533,33 @@ TEST_F(BackSubmapBuilderTest, EachSideOfABlankStretchKeepsItsBestAttempt) {
   bool said = false;
   for (const std::string& w : r.warnings) said |= w.find("first attempt's model of 3 frames kept") != std::string::npos;
   EXPECT_TRUE(said);
+  // No pair crosses the stretch, in the selection or in the fill: every pair of a side, and no other.
+  EXPECT_EQ(r.matched_pairs, 6);
+  const std::string args = Args();
+  EXPECT_EQ(args.find("exhaustive_matcher"), std::string::npos) << args;
+  ASSERT_NE(args.find("pairs_fill.txt"), std::string::npos) << args;
+}
+
+TEST_F(BackSubmapBuilderTest, NoPairCrossesABlankStretch) {
+  const std::vector<Timestamp> t = CoverFrames3To5();
+  options_.pairs.overlap = 1;  // the selection: neighbours within a side
+  options_.pairs.quadratic = false;
+  options_.keep_workspaces = true;
+  options_.colmap_path = FakeColmap("exit 0");
+  const BackResult r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_FALSE(r.workspace.empty());
+  const auto read = [&](const char* name) {
+    std::ifstream in(fs::path(r.workspace) / name);
+    std::vector<std::pair<std::string, std::string>> pairs;
+    std::string a, b;
+    while (in >> a >> b) pairs.push_back({a, b});
+    return pairs;
+  };
+  const auto name = [&](int i) { return ColmapImageName(t[i]); };
+  using P = std::vector<std::pair<std::string, std::string>>;
+  EXPECT_EQ(read("pairs.txt"), (P{{name(0), name(1)}, {name(1), name(2)}, {name(6), name(7)}, {name(7), name(8)}}));
+  EXPECT_EQ(read("pairs_fill.txt"), (P{{name(0), name(2)}, {name(6), name(8)}}));
+  fs::remove_all(r.workspace);
 }
 
 // The retry is kept only when it is larger; a failing retry leaves the first.
