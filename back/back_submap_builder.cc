@@ -504,37 +504,68 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
     adopt_if_larger(std::move(all), "matching the remaining pairs failed: ", "selected pairs: ", &res.fill_kept);
     return true;
   };
-  // What the first attempt left out decides what comes next. Frames with few
-  // SIFT features at the first threshold (a plain wall) need the lower one,
+  // The COLMAP names of the frames (not blank) in none of `a`'s models, and
+  // of those at most `margin` frames from one of them.
+  const auto in_no_model = [&](const Attempt& a, int margin) {
+    std::unordered_set<Timestamp> in_model;
+    for (const Built& b : a.built)
+      for (const Keyframe& k : b.submap.keyframes) in_model.insert(k.timestamp);
+    const int n = int(window.frames.size());
+    std::vector<bool> take(n, false);
+    for (int i = 0; i < n; ++i)
+      if (!blank[i] && !in_model.count(window.frames[i].timestamp))
+        for (int j = std::max(0, i - margin); j <= std::min(n - 1, i + margin); ++j) take[j] = !blank[j];
+    std::vector<std::string> names;
+    for (int i = 0; i < n; ++i)
+      if (take[i]) names.push_back(ColmapImageName(window.frames[i].timestamp));
+    return names;
+  };
+  // What the first attempt left out decides what comes next. A frame with few
+  // SIFT features at the first threshold (a plain wall) needs the lower one:
   // no pair makes up for missing features, and the textured frames beyond
-  // them stay unlinked too: when at least a quarter of the frames in no model
-  // are such, the retry goes first and the fill only follows if the retry is
-  // still short (a generated corridor window: 16 of the 33 frames in no
-  // model had under 100 features; the fill added 1, the retry all 73).
-  bool texture_poor = false;
+  // it stay unlinked too. So does a frame whose selected pairs (its temporal
+  // neighbours among them) gave no verified pair with a frame in a model:
+  // its features do not match, and more pairs seldom change that. When at
+  // least a quarter of the frames in no model are such, the retry goes first
+  // and the fill only follows if the retry is still short (a generated
+  // corridor window: 16 of the 33 frames in no model had under 100 features;
+  // the fill added 1, the retry all 73. A weak-texture window: 5 of 12 with
+  // no verified pair to the model; fill then retry 247 CPU s, the retry
+  // alone 141. Blur and drop windows: every frame left out had 23-222
+  // inliers to the model, and the fill registered them).
+  bool retry_first = false;
   std::string fill_tag;  // the attempt whose database a later fill matches
   if (can_fill && can_retry && options_.retry_first_below_features > 0 && short_of_frames(at)) {
+    const std::string db = (ws / "database.db").string();
     std::unordered_map<std::string, int> features;
-    if (!ReadColmapKeypointCounts((ws / "database.db").string(), &features, &why)) {
+    std::vector<std::pair<std::string, std::string>> verified;
+    if (!ReadColmapKeypointCounts(db, &features, &why) ||
+        !ReadColmapVerifiedPairs(db, kColmapMinInliers, &verified, &why)) {
       spdlog::debug("window {}: {}", window.id, why);
     } else {
-      std::unordered_set<Timestamp> in_model;
-      for (const Built& b : at.built)
-        for (const Keyframe& k : b.submap.keyframes) in_model.insert(k.timestamp);
-      int missing = 0, poor = 0;
-      for (size_t i = 0; i < window.frames.size(); ++i) {
-        if (blank[i] || in_model.count(window.frames[i].timestamp)) continue;
-        ++missing;
-        const auto it = features.find(ColmapImageName(window.frames[i].timestamp));
-        poor += it == features.end() || it->second < options_.retry_first_below_features;
+      const std::vector<std::string> missing = in_no_model(at, 0);
+      const std::unordered_set<std::string> out(missing.begin(), missing.end());
+      std::unordered_set<std::string> linked;  // frames in no model verified with a frame in one
+      for (const auto& [a, b] : verified) {
+        if (out.count(a) && !out.count(b)) linked.insert(a);
+        if (out.count(b) && !out.count(a)) linked.insert(b);
       }
-      texture_poor = poor > 0 && 4 * poor >= missing;
-      if (texture_poor)
-        spdlog::info("window {}: {} of the {} frames in no model have fewer than {} SIFT features: the retry "
-                     "goes before the fill", window.id, poor, missing, options_.retry_first_below_features);
+      int poor = 0, unlinked = 0;
+      for (const std::string& name : missing) {
+        const auto it = features.find(name);
+        if (it == features.end() || it->second < options_.retry_first_below_features)
+          ++poor;
+        else
+          unlinked += !linked.count(name);
+      }
+      retry_first = poor + unlinked > 0 && 4 * (poor + unlinked) >= int(missing.size());
+      if (retry_first)
+        spdlog::info("window {}: of the {} frames in no model, {} have fewer than {} SIFT features and {} no "
+                     "verified pair with a frame in a model: the retry goes before the fill",
+                     window.id, missing.size(), poor, options_.retry_first_below_features, unlinked);
     }
   }
-  if (can_fill && !texture_poor && short_of_frames(at) && !fill("", options_.sift_peak_threshold))
+  if (can_fill && !retry_first && short_of_frames(at) && !fill("", options_.sift_peak_threshold))
     return finish(BackStatus::kCancelled, cancelled);
   // Texture-poor windows (a plain corridor wall) give SIFT too few features at
   // the usual threshold: when the largest model misses too many frames, the
@@ -542,6 +573,24 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
   if (can_retry && short_of_frames(at)) {
     spdlog::info("window {}: {}/{} frames in the largest model; retrying with SIFT peak threshold {}", window.id,
                  at.largest(), frames, options_.retry_peak_threshold);
+    // Frames a model already holds keep their features and their matches
+    // with each other; the others are extracted again at the lower threshold
+    // and only their pairs are matched (COLMAP skips what the copy holds).
+    // So are the model's frames up to pairs.overlap from one left out: where
+    // a model ends against a plain stretch its last frames are poor at the
+    // first threshold too (generated corridor seed 2, a first model of frames
+    // 0-19: 42-172 features on 15-19; without them the retry held 53 or 56
+    // of 73 frames, with them 73).
+    if (options_.retry_reuses_features) {
+      const std::vector<std::string> again = in_no_model(at, options_.pairs.overlap);
+      int forgotten = 0;
+      if (CopyColmapDatabase((ws / "database.db").string(), (ws / "database_retry.db").string(), again,
+                             &forgotten, &why))
+        spdlog::info("window {}: the retry keeps the features of {} frames in a model and extracts {} again",
+                     window.id, frames - forgotten, forgotten);
+      else
+        spdlog::warn("window {}: the retry extracts every frame again: {}", window.id, why);
+    }
     Attempt retry = run_attempt(options_.retry_peak_threshold, "_retry");
     retry.name = "retry";
     res.retried = true;
@@ -550,7 +599,7 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
     if (retry.status == BackStatus::kOk && retry.largest() >= at.largest()) fill_tag = "_retry";
     adopt_if_larger(std::move(retry), "retry with a lower SIFT threshold failed: ", "first attempt: ", &res.retry_kept);
   }
-  if (can_fill && texture_poor && short_of_frames(at) &&
+  if (can_fill && retry_first && short_of_frames(at) &&
       !fill(fill_tag, fill_tag.empty() ? options_.sift_peak_threshold : options_.retry_peak_threshold))
     return finish(BackStatus::kCancelled, cancelled);
   res.warnings.insert(res.warnings.end(), at.warnings.begin(), at.warnings.end());

@@ -2,6 +2,7 @@
 // here): failures, hangs, empty output and canned models, without COLMAP.
 #include "back/canned_colmap_model.h"
 #include "back/back_submap_builder.h"
+#include "back/colmap_database.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -72,13 +73,24 @@ class BackSubmapBuilderTest : public ::testing::Test {
                       "/* $out/;; *) cp -r " + few.string() + "/* $out/;; esac; fi");
   }
   // Shell for a fake colmap: its feature extractor leaves a COLMAP database
-  // where frames `poor` have 20 SIFT keypoints and the others 500.
-  std::string DatabaseWithPoorFrames(const std::set<int>& poor) {
+  // where frames `poor` have 20 SIFT keypoints and the others 500, and the
+  // pairs of frames `unlinked` have 5 inliers (not verified).
+  std::string DatabaseWithPoorFrames(const std::set<int>& poor, const std::set<int>& unlinked = {}) {
     std::vector<std::pair<std::string, int>> rows;
     for (size_t i = 0; i < window_.frames.size(); ++i)
       rows.push_back({ColmapImageName(window_.frames[i].timestamp), poor.count(int(i)) ? 20 : 500});
-    const fs::path db = root_ / ("canned_" + std::to_string(poor.size()) + ".db");
+    const fs::path db =
+        root_ / ("canned_" + std::to_string(poor.size()) + "_" + std::to_string(unlinked.size()) + ".db");
     EXPECT_TRUE(WriteCannedColmapDatabase(db, rows));
+    for (const int i : unlinked) {
+      sqlite3* h = nullptr;
+      EXPECT_EQ(sqlite3_open(db.c_str(), &h), SQLITE_OK);
+      const std::string id = std::to_string(i + 1);  // image ids follow the frames
+      const std::string sql = "UPDATE two_view_geometries SET rows = 5 WHERE pair_id / 2147483647 = " + id +
+                              " OR pair_id % 2147483647 = " + id;
+      EXPECT_EQ(sqlite3_exec(h, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
+      sqlite3_close(h);
+    }
     return "if [ $cmd = feature_extractor ]; then cp " + db.string() + " $(tail -n 1 " +
            (root_ / "args.txt").string() + " | sed 's/.*--database_path \\([^ ]*\\).*/\\1/'); fi\n";
   }
@@ -296,6 +308,57 @@ TEST_F(BackSubmapBuilderTest, RetryWithLowerPeakThresholdKeepsTheLargerModel) {
   EXPECT_EQ(Args().find("database_retry.db"), std::string::npos);
 }
 
+// The retry starts from a copy of the first attempt's database without the
+// frames in no model: COLMAP extracts only those again and matches only
+// their pairs. What its feature extractor finds is kept in retry_seen.db.
+TEST_F(BackSubmapBuilderTest, TheRetryKeepsTheFeaturesOfFramesInAModel) {
+  std::vector<std::pair<std::string, int>> rows;
+  for (size_t i = 0; i < window_.frames.size(); ++i)
+    rows.push_back({ColmapImageName(window_.frames[i].timestamp), 300 + int(i)});
+  const fs::path canned = root_ / "canned.db", seen = root_ / "retry_seen.db";
+  ASSERT_TRUE(WriteCannedColmapDatabase(canned, rows));
+  const std::string db = "$(tail -n 1 " + (root_ / "args.txt").string() +
+                         " | sed 's/.*--database_path \\([^ ]*\\).*/\\1/')";
+  const std::string extractor = "if [ $cmd = feature_extractor ]; then db=" + db +
+                                "; case $db in *database.db) cp " + canned.string() + " $db;; *) if [ -f $db ]; then cp $db " +
+                                seen.string() + "; fi;; esac; fi\n";
+  options_.colmap_path = MapperFewOrAll("sparse_retry", extractor);
+  options_.retry_first_below_features = 0;
+  options_.matcher = "exhaustive";  // no fill: the retry follows the first attempt
+  options_.pairs.overlap = 1;       // frame 2, next to frame 3, is extracted again too
+  BackResult r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  EXPECT_TRUE(r.retried);
+  EXPECT_TRUE(r.retry_kept);
+  ASSERT_TRUE(fs::exists(seen));
+  // Frames 0 and 1 (images 1 and 2, in the first model) keep their features
+  // and their pair; frames 3 and 4 (in no model) and 2 (1 frame from one)
+  // are extracted and matched again.
+  std::unordered_map<std::string, int> counts;
+  std::string why;
+  ASSERT_TRUE(ReadColmapKeypointCounts(seen.string(), &counts, &why)) << why;
+  EXPECT_EQ(counts, (std::unordered_map<std::string, int>{{rows[0].first, 300}, {rows[1].first, 301}}));
+  sqlite3* h = nullptr;
+  ASSERT_EQ(sqlite3_open_v2(seen.c_str(), &h, SQLITE_OPEN_READONLY, nullptr), SQLITE_OK);
+  sqlite3_stmt* stmt = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(h, "SELECT pair_id FROM matches ORDER BY pair_id", -1, &stmt, nullptr), SQLITE_OK);
+  std::vector<int64_t> pairs;
+  while (sqlite3_step(stmt) == SQLITE_ROW) pairs.push_back(sqlite3_column_int64(stmt, 0));
+  sqlite3_finalize(stmt);
+  sqlite3_close(h);
+  const int64_t k = 2147483647;
+  EXPECT_EQ(pairs, (std::vector<int64_t>{k * 1 + 2}));
+  EXPECT_TRUE(WorkspaceEmpty());
+
+  // Off: the retry starts from an empty database and extracts everything.
+  fs::remove(seen);
+  options_.retry_reuses_features = false;
+  r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  EXPECT_TRUE(r.retried);
+  EXPECT_FALSE(fs::exists(seen));
+}
+
 // Selected pairs that leave frames out of the model: the remaining pairs are
 // matched on the same features (no second extraction) and mapped again; the
 // lower-threshold retry is not needed once that model holds the window.
@@ -326,9 +389,10 @@ TEST_F(BackSubmapBuilderTest, SelectedPairsFallingShortAreFilledBeforeTheRetry) 
   EXPECT_TRUE(r.retried);
 }
 
-// Frames left out for lack of SIFT features: the retry at the lower threshold
-// goes first, and the fill (every other pair) only if the retry is short.
-TEST_F(BackSubmapBuilderTest, TexturePoorFramesAreRetriedBeforeTheFill) {
+// Frames left out for lack of SIFT features, or without a verified pair to a
+// frame in a model: the retry at the lower threshold goes first, and the
+// fill (every other pair) only if the retry is short.
+TEST_F(BackSubmapBuilderTest, TexturePoorOrUnlinkedFramesAreRetriedBeforeTheFill) {
   // Frames 3 and 4 (the two the first model lacks) have 20 features.
   options_.colmap_path = MapperFewOrAll("sparse_retry", DatabaseWithPoorFrames({3, 4}));
   BackResult r = BackSubmapBuilder(options_).Build(window_);
@@ -357,6 +421,16 @@ TEST_F(BackSubmapBuilderTest, TexturePoorFramesAreRetriedBeforeTheFill) {
   args = Args();
   ASSERT_NE(args.find("exhaustive_matcher"), std::string::npos) << args;
   EXPECT_LT(args.find("exhaustive_matcher"), args.find("database_retry.db"));
+
+  // Textured frames without a verified pair to a frame in a model count as
+  // texture-poor ones: one of the two is enough.
+  fs::remove(root_ / "args.txt");
+  options_.colmap_path = MapperFewOrAll("sparse_retry", DatabaseWithPoorFrames({}, {4}));
+  r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  EXPECT_FALSE(r.filled);
+  EXPECT_TRUE(r.retry_kept);
+  EXPECT_EQ(Args().find("exhaustive_matcher"), std::string::npos);
 
   // 0 turns the decision off: the fill first, as before.
   fs::remove(root_ / "args.txt");

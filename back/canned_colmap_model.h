@@ -5,6 +5,8 @@
 #include <sqlite3.h>
 #include <sys/stat.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/core.hpp>
@@ -63,7 +65,9 @@ inline void WriteCannedModel(const std::filesystem::path& dir, const PinholeCame
 }
 
 // Writes a COLMAP database (the tables and columns of COLMAP's schema that
-// the back reads) holding `keypoints`: image name -> keypoint rows.
+// the back reads or edits) holding `keypoints`: image name -> keypoint rows,
+// as many descriptor rows, and a matches and a two-view geometry row for
+// every pair of images (rows: the smaller of the two counts).
 inline bool WriteCannedColmapDatabase(const std::filesystem::path& path,
                                       const std::vector<std::pair<std::string, int>>& keypoints) {
   std::filesystem::remove(path);
@@ -73,11 +77,24 @@ inline bool WriteCannedColmapDatabase(const std::filesystem::path& path,
       "CREATE TABLE images (image_id INTEGER PRIMARY KEY AUTOINCREMENT NOT NULL, name TEXT NOT NULL UNIQUE, "
       "camera_id INTEGER NOT NULL);"
       "CREATE TABLE keypoints (image_id INTEGER PRIMARY KEY NOT NULL, rows INTEGER NOT NULL, "
-      "cols INTEGER NOT NULL, data BLOB);";
+      "cols INTEGER NOT NULL, data BLOB);"
+      "CREATE TABLE descriptors (image_id INTEGER PRIMARY KEY NOT NULL, rows INTEGER NOT NULL, "
+      "cols INTEGER NOT NULL, data BLOB);"
+      "CREATE TABLE matches (pair_id INTEGER PRIMARY KEY NOT NULL, rows INTEGER NOT NULL, "
+      "cols INTEGER NOT NULL, data BLOB);"
+      "CREATE TABLE two_view_geometries (pair_id INTEGER PRIMARY KEY NOT NULL, rows INTEGER NOT NULL, "
+      "cols INTEGER NOT NULL, data BLOB, config INTEGER NOT NULL);";
   for (size_t i = 0; i < keypoints.size(); ++i) {
-    const std::string id = std::to_string(i + 1);
+    const std::string id = std::to_string(i + 1), n = std::to_string(keypoints[i].second);
     sql += "INSERT INTO images VALUES (" + id + ", '" + keypoints[i].first + "', 1);";
-    sql += "INSERT INTO keypoints VALUES (" + id + ", " + std::to_string(keypoints[i].second) + ", 6, NULL);";
+    sql += "INSERT INTO keypoints VALUES (" + id + ", " + n + ", 6, NULL);";
+    sql += "INSERT INTO descriptors VALUES (" + id + ", " + n + ", 128, NULL);";
+    for (size_t j = 0; j < i; ++j) {
+      const std::string pair = std::to_string(2147483647LL * int64_t(j + 1) + int64_t(i + 1));
+      const std::string rows = std::to_string(std::min(keypoints[i].second, keypoints[j].second));
+      sql += "INSERT INTO matches VALUES (" + pair + ", " + rows + ", 2, NULL);";
+      sql += "INSERT INTO two_view_geometries VALUES (" + pair + ", " + rows + ", 2, NULL, 2);";
+    }
   }
   const bool ok = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr) == SQLITE_OK;
   sqlite3_close(db);
