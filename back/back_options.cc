@@ -59,9 +59,10 @@ const OptionSpec<BackOptions>& BackOptions::Spec() {
     s->Number("retry_below_registered", &O::retry_below_registered, AtLeast(0.0), AtMost(1.0),
               "retry when the largest model holds less than this share of the window");
     s->Number("retry_first_below_features", &O::retry_first_below_features, AtLeast(0), AtMost(100000),
-              "retry before the fill when a quarter of the frames left out have fewer SIFT features; 0: fill first");
+              "retry before the fill when a quarter of the frames left out have fewer SIFT features or no "
+              "verified pair; 0: fill first");
     s->Flag("retry_reuses_features", &O::retry_reuses_features,
-            "the retry keeps the features and matches of the frames already in a model");
+            "the retry keeps the features and matches of the frames the largest models hold");
     s->Flag("sift_domain_size_pooling", &O::sift_domain_size_pooling, "DSP-SIFT descriptors");
     s->Choice("mode", &O::mode, {"local", "remote", "both"},
               "where windows are built: here, on rumi-back --remote workers over DDS, or remote with a local fallback");

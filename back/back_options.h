@@ -82,16 +82,17 @@ struct BackOptions {
   // 0.004, 93/93 at 0.0015 (docs/synth.md).
   double retry_peak_threshold = 0.0015;
   double retry_below_registered = 0.9;
-  // When at least a quarter of the frames the first attempt left in no model
-  // (blank ones aside) have fewer SIFT features than this, the retry goes
-  // before the fill: no pair makes up for missing features. 0 = the fill first.
+  // When at least a quarter of the frames the first attempt left out of
+  // the largest models (blank ones aside) have fewer SIFT features than
+  // this, or no verified pair with a frame kept, the retry goes before the
+  // fill: no pair makes up for features that do not match. 0 = the fill first.
   int retry_first_below_features = 100;
-  // The retry keeps the features and matches of the frames already in a
-  // model (copied from the first attempt's database): only the frames in no
-  // model, and those within pairs.overlap of one, are extracted again at the
-  // lower threshold, and only their pairs matched (generated corridor seed
-  // 2: the retry's matching 69 -> 24 CPU s, the same 73/73 frames; docs/
-  // back.md step 8). Off: the retry extracts and matches everything.
+  // The retry keeps the features and matches of the frames the largest
+  // models hold (copied from the first attempt's database): only the frames
+  // left out, and those within pairs.overlap of one, are extracted again at
+  // the lower threshold, and only their pairs matched (generated corridor
+  // seed 2: 162-201 -> 109-113 CPU s, the same 73/73 frames; docs/back.md
+  // step 8). Off: the retry extracts and matches everything.
   bool retry_reuses_features = true;
   // COLMAP SiftExtraction.domain_size_pooling (DSP-SIFT: descriptors pooled
   // over several patch sizes; CPU extraction only). Off: better on one dark

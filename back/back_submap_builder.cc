@@ -504,16 +504,39 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
     adopt_if_larger(std::move(all), "matching the remaining pairs failed: ", "selected pairs: ", &res.fill_kept);
     return true;
   };
-  // The COLMAP names of the frames (not blank) in none of `a`'s models, and
-  // of those at most `margin` frames from one of them.
-  const auto in_no_model = [&](const Attempt& a, int margin) {
-    std::unordered_set<Timestamp> in_model;
-    for (const Built& b : a.built)
-      for (const Keyframe& k : b.submap.keyframes) in_model.insert(k.timestamp);
+  // The COLMAP names of the frames (not blank) that `a` left out, and of
+  // those at most `margin` frames from one of them. Left out: not in the
+  // model that holds most of the frame's part (short_of_frames' parts), so a
+  // smaller model the part also split into counts as left out (generated
+  // weak seed 3: 88 + 22 frames in two models and 8 in none; the retry of
+  // the 8 alone gave 88 + 22 again, a full one 110 in one model).
+  const auto left_out = [&](const Attempt& a, int margin) {
     const int n = int(window.frames.size());
+    std::unordered_map<Timestamp, int> index;
+    std::vector<size_t> part(n);
+    for (int i = 0; i < n; ++i) {
+      index[window.frames[i].timestamp] = i;
+      part[i] = size_t(std::upper_bound(part_bounds.begin(), part_bounds.end(), window.frames[i].timestamp) -
+                       part_bounds.begin());
+    }
+    // Per part, the frames of its best model: the one holding most of it, the larger on a tie.
+    std::vector<int> best(part_bounds.size() + 1, 0);
+    std::vector<std::vector<int>> kept(part_bounds.size() + 1);
+    for (const Built& b : a.built) {
+      std::vector<std::vector<int>> in(part_bounds.size() + 1);
+      for (const Keyframe& k : b.submap.keyframes) {
+        const auto it = index.find(k.timestamp);
+        if (it != index.end()) in[part[it->second]].push_back(it->second);
+      }
+      for (size_t p = 0; p < in.size(); ++p)
+        if (int(in[p].size()) > best[p]) best[p] = int(in[p].size()), kept[p] = std::move(in[p]);
+    }
+    std::vector<bool> in_best(n, false);
+    for (const auto& frames_of_part : kept)
+      for (const int i : frames_of_part) in_best[i] = true;
     std::vector<bool> take(n, false);
     for (int i = 0; i < n; ++i)
-      if (!blank[i] && !in_model.count(window.frames[i].timestamp))
+      if (!blank[i] && !in_best[i])
         for (int j = std::max(0, i - margin); j <= std::min(n - 1, i + margin); ++j) take[j] = !blank[j];
     std::vector<std::string> names;
     for (int i = 0; i < n; ++i)
@@ -524,14 +547,14 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
   // SIFT features at the first threshold (a plain wall) needs the lower one:
   // no pair makes up for missing features, and the textured frames beyond
   // it stay unlinked too. So does a frame whose selected pairs (its temporal
-  // neighbours among them) gave no verified pair with a frame in a model:
-  // its features do not match, and more pairs seldom change that. When at
-  // least a quarter of the frames in no model are such, the retry goes first
+  // neighbours among them) gave no verified pair with a frame kept: its
+  // features do not match, and more pairs seldom change that. When at least
+  // a quarter of the frames left out (left_out) are such, the retry goes first
   // and the fill only follows if the retry is still short (a generated
   // corridor window: 16 of the 33 frames in no model had under 100 features;
   // the fill added 1, the retry all 73. A weak-texture window: 5 of 12 with
-  // no verified pair to the model; fill then retry 247 CPU s, the retry
-  // alone 141. Blur and drop windows: every frame left out had 23-222
+  // no verified pair to the model; fill then retry 247-352 CPU s, the retry
+  // alone 134-142. Blur and drop windows: every frame left out had 23-222
   // inliers to the model, and the fill registered them).
   bool retry_first = false;
   std::string fill_tag;  // the attempt whose database a later fill matches
@@ -543,9 +566,9 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
         !ReadColmapVerifiedPairs(db, kColmapMinInliers, &verified, &why)) {
       spdlog::debug("window {}: {}", window.id, why);
     } else {
-      const std::vector<std::string> missing = in_no_model(at, 0);
+      const std::vector<std::string> missing = left_out(at, 0);
       const std::unordered_set<std::string> out(missing.begin(), missing.end());
-      std::unordered_set<std::string> linked;  // frames in no model verified with a frame in one
+      std::unordered_set<std::string> linked;  // frames left out verified with a frame kept
       for (const auto& [a, b] : verified) {
         if (out.count(a) && !out.count(b)) linked.insert(a);
         if (out.count(b) && !out.count(a)) linked.insert(b);
@@ -560,8 +583,8 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
       }
       retry_first = poor + unlinked > 0 && 4 * (poor + unlinked) >= int(missing.size());
       if (retry_first)
-        spdlog::info("window {}: of the {} frames in no model, {} have fewer than {} SIFT features and {} no "
-                     "verified pair with a frame in a model: the retry goes before the fill",
+        spdlog::info("window {}: of the {} frames left out of the largest models, {} have fewer than {} SIFT "
+                     "features and {} no verified pair with a frame in one: the retry goes before the fill",
                      window.id, missing.size(), poor, options_.retry_first_below_features, unlinked);
     }
   }
@@ -573,20 +596,21 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
   if (can_retry && short_of_frames(at)) {
     spdlog::info("window {}: {}/{} frames in the largest model; retrying with SIFT peak threshold {}", window.id,
                  at.largest(), frames, options_.retry_peak_threshold);
-    // Frames a model already holds keep their features and their matches
-    // with each other; the others are extracted again at the lower threshold
-    // and only their pairs are matched (COLMAP skips what the copy holds).
-    // So are the model's frames up to pairs.overlap from one left out: where
+    // Frames the largest models hold keep their features and their matches
+    // with each other; those left out are extracted again at the lower
+    // threshold and only their pairs are matched (COLMAP skips what the copy
+    // holds). So are the kept frames up to pairs.overlap from one left out: where
     // a model ends against a plain stretch its last frames are poor at the
     // first threshold too (generated corridor seed 2, a first model of frames
     // 0-19: 42-172 features on 15-19; without them the retry held 53 or 56
     // of 73 frames, with them 73).
     if (options_.retry_reuses_features) {
-      const std::vector<std::string> again = in_no_model(at, options_.pairs.overlap);
+      const std::vector<std::string> again = left_out(at, options_.pairs.overlap);
       int forgotten = 0;
       if (CopyColmapDatabase((ws / "database.db").string(), (ws / "database_retry.db").string(), again,
                              &forgotten, &why))
-        spdlog::info("window {}: the retry keeps the features of {} frames in a model and extracts {} again",
+        spdlog::info("window {}: the retry keeps the features of {} frames of the largest models and extracts {} "
+                     "again",
                      window.id, frames - forgotten, forgotten);
       else
         spdlog::warn("window {}: the retry extracts every frame again: {}", window.id, why);

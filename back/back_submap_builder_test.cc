@@ -350,6 +350,24 @@ TEST_F(BackSubmapBuilderTest, TheRetryKeepsTheFeaturesOfFramesInAModel) {
   EXPECT_EQ(pairs, (std::vector<int64_t>{k * 1 + 2}));
   EXPECT_TRUE(WorkspaceEmpty());
 
+  // Frames in a smaller model of their part count as left out: the first
+  // attempt splits the window into frames 0-2 and 3-4.
+  fs::remove(seen);
+  std::vector<Timestamp> t;
+  for (const auto& f : window_.frames) t.push_back(f.timestamp);
+  const fs::path split = root_ / "split", all = root_ / "all";
+  WriteCannedModel(split / "0", window_.camera, {t[0], t[1], t[2]});
+  WriteCannedModel(split / "1", window_.camera, {t[3], t[4]});
+  options_.min_registered_images = 2;
+  options_.colmap_path = FakeColmap(extractor + "if [ $cmd = mapper ]; then case \"$out\" in *sparse_retry) cp -r " +
+                                    all.string() + "/* $out/;; *) cp -r " + split.string() + "/* $out/;; esac; fi");
+  r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  EXPECT_TRUE(r.retry_kept);
+  ASSERT_TRUE(ReadColmapKeypointCounts(seen.string(), &counts, &why)) << why;
+  EXPECT_EQ(counts, (std::unordered_map<std::string, int>{{rows[0].first, 300}, {rows[1].first, 301}}));
+  options_.min_registered_images = BackOptions().min_registered_images;
+
   // Off: the retry starts from an empty database and extracts everything.
   fs::remove(seen);
   options_.retry_reuses_features = false;
