@@ -9,6 +9,7 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
+#include <chrono>
 #include <cstdio>
 
 #include "back/back_options.h"
@@ -25,6 +26,7 @@
 #include "common/trajectory_eval.h"
 #include "configs/process_setup.h"
 #include "ipc/submap_codec.h"
+#include "ipc/window_codec.h"
 
 using namespace rumi;
 
@@ -44,6 +46,29 @@ void PrintAte(const Submap& s, const Trajectory& gt) {
   }
 }
 
+// What back.remote_png saves on the wire, and what it costs each side.
+int PrintWireBench(const ImageWindow& w) {
+  using Clock = std::chrono::steady_clock;
+  const auto secs = [](Clock::time_point a) { return std::chrono::duration<double>(Clock::now() - a).count(); };
+  const size_t raw = EncodedWindowSize(w);
+  auto t = Clock::now();
+  const std::vector<uint8_t> png = EncodeWindow(w, WindowPixels::kPng);
+  const double encode_s = secs(t);
+  t = Clock::now();
+  ImageWindow back;
+  std::string why;
+  if (!DecodeWindow(png.data(), png.size(), &back, /*in_place=*/false, &why)) {
+    spdlog::error("the PNG window does not decode: {}", why);
+    return kExitError;
+  }
+  const double decode_s = secs(t);
+  std::printf("rumi-back wire: %zu frames %dx%d: raw %.2f MB, PNG %.2f MB (%.1f %% of raw), "
+              "PNG encode %.2f s, decode %.2f s (one thread)\n",
+              w.frames.size(), w.camera.width, w.camera.height, raw / 1e6, png.size() / 1e6,
+              100.0 * static_cast<double>(png.size()) / static_cast<double>(raw), encode_s, decode_s);
+  return kExitDone;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -51,7 +76,7 @@ int main(int argc, char** argv) {
   std::string window_dir, config_path, out_dir, gt_path, log_level, instance, work_dir;
   double wait_for_producer_s = -1, wait_for_consumer_s = -1;
   int64_t first_submap_id = 0;
-  bool bench = false, keep = false, daemon = false, remote = false;
+  bool bench = false, bench_wire = false, keep = false, daemon = false, remote = false;
   std::string worker_name;
   WindowDirOptions wd;
   app.add_option("--window-dir", window_dir, "folder with rgb.txt-style index and images");
@@ -72,6 +97,9 @@ int main(int argc, char** argv) {
                "a remote back worker: build the windows the rumi-back of --instance offers over DDS (dds: section)");
   app.add_option("--name", worker_name, "with --remote: the worker's name on the wire (default <host>-<pid>)");
   app.add_flag("--bench", bench, "print the time split per COLMAP step");
+  app.add_flag("--bench-wire", bench_wire,
+               "with --window-dir: print the window's bytes to a remote worker (raw, PNG) and the PNG times; "
+               "builds nothing");
   app.add_option("--groundtruth", gt_path, "TUM ground truth: print ATE (Sim3) per submap");
   app.add_option("--first", wd.first, "first listed frame used")->check(CLI::NonNegativeNumber);
   app.add_option("--count", wd.count, "number of frames used (-1 = all)");
@@ -134,7 +162,7 @@ int main(int argc, char** argv) {
     return RunBack(run, setup.stop());
   }
   if (options.low_priority) spdlog::info("priority: {}", LowerOwnPriority());
-  if (window_dir.empty() || out_dir.empty() || !setup.config().has_camera) {
+  if (window_dir.empty() || (out_dir.empty() && !bench_wire) || !setup.config().has_camera) {
     spdlog::error("file mode needs --window-dir, --out and a --config with a camera: section");
     return kExitBadInput;
   }
@@ -147,6 +175,7 @@ int main(int argc, char** argv) {
   }
   spdlog::info("window: {} frames {}x{} from {}", window.frames.size(), window.camera.width,
                window.camera.height, window_dir);
+  if (bench_wire) return PrintWireBench(window);
   BackSubmapBuilder builder(options);
   const BackResult result = builder.Build(window);
   if (!WriteBackResult(result, out_dir, &error)) {

@@ -70,6 +70,7 @@ const OptionSpec<BackOptions>& BackOptions::Spec() {
               "mode both: built here when no worker claims a window within this long");
     s->Number("remote_lease_s", &O::remote_lease_s, Above(0.0), AtMost(86400.0),
               "a worker silent this long is taken for dead and its window offered again");
+    s->Flag("remote_png", &O::remote_png, "windows go to remote workers with PNG frames (lossless)");
     s->Rule("orb_features must be 0 (off) or in [50, 20000]",
             [](const O& o) { return o.orb_features == 0 || o.orb_features >= 50; });
     return s;

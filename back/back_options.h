@@ -109,6 +109,10 @@ struct BackOptions {
   // A worker that sends no progress for this long is taken for dead: the
   // window is offered again (a late result of the old attempt is dropped).
   double remote_lease_s = 20.0;
+  // Windows go to remote workers with PNG frames (lossless; the shared-memory
+  // ring stays raw): 50-66 % of the raw bytes for about 10 ms a frame on
+  // the dispatcher (docs/back.md, Remote workers). Off: raw, as on the ring.
+  bool remote_png = true;
 
   static const OptionSpec<BackOptions>& Spec();  // section `back:`
   bool Check(std::string* why = nullptr) const;

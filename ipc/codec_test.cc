@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <random>
 
 #include "ipc/envelope.h"
@@ -219,26 +220,143 @@ TEST(SubmapCodec, FuzzWithRepairedChecksumNeverCrashes) {
   RecordProperty("decoded_after_repair", decoded);
 }
 
-TEST(WindowCodec, RoundTripCopyAndInPlace) {
-  ImageWindow w = MakeWindow(4, 5, 33, 17);  // odd sizes exercise padding
-  w.frames[2].image = cv::Mat();               // a frame without pixels
+// Frames of every kind the codec meets: odd sizes (padding), one without
+// pixels, a non-continuous ROI, 16-bit colour.
+ImageWindow MixedWindow(int frames) {
+  ImageWindow w = MakeWindow(4, frames, 33, 17);
+  w.frames[2].image = cv::Mat();
   cv::Mat big(40, 60, CV_8UC1, cv::Scalar(9));
-  w.frames[3].image = big(cv::Rect(5, 5, 20, 10));  // non-continuous ROI
+  w.frames[3].image = big(cv::Rect(5, 5, 20, 10));
   w.frames[4].image = cv::Mat(3, 4, CV_16UC3, cv::Scalar(1000, 2000, 3000));
-  const auto bytes = EncodeWindow(w);
-  EXPECT_EQ(bytes.size(), EncodedWindowSize(w));
-  ImageWindow copy, view;
+  return w;
+}
+
+// Decodes a copy and an in-place view of `bytes`; both must equal `w`.
+void ExpectDecodesTo(const std::vector<uint8_t>& bytes, const ImageWindow& w, ImageWindow* view) {
+  ImageWindow copy;
   std::string err;
   ASSERT_TRUE(DecodeWindow(bytes.data(), bytes.size(), &copy, false, &err)) << err;
-  ASSERT_TRUE(DecodeWindow(bytes.data(), bytes.size(), &view, true, &err)) << err;
+  ASSERT_TRUE(DecodeWindow(bytes.data(), bytes.size(), view, true, &err)) << err;
   ExpectWindowEqual(w, copy);
-  ExpectWindowEqual(w, view);
+  ExpectWindowEqual(w, *view);
+  EXPECT_FALSE(copy.frames[0].image.data >= bytes.data() && copy.frames[0].image.data < bytes.data() + bytes.size());
+}
+
+TEST(WindowCodec, RoundTripCopyAndInPlace) {
+  const ImageWindow w = MixedWindow(5);
+  const auto bytes = EncodeWindow(w);
+  EXPECT_EQ(bytes.size(), EncodedWindowSize(w));
+  ImageWindow view;
+  ExpectDecodesTo(bytes, w, &view);
   // In place really means no copy: pixels live inside the record, 64-aligned.
   const uint8_t* p = view.frames[0].image.data;
   EXPECT_GE(p, bytes.data());
   EXPECT_LT(p, bytes.data() + bytes.size());
   EXPECT_EQ((p - bytes.data()) % 64, 0);
-  EXPECT_FALSE(copy.frames[0].image.data >= bytes.data() && copy.frames[0].image.data < bytes.data() + bytes.size());
+}
+
+// The PNG frames of a record: where each PNG signature starts.
+std::vector<size_t> PngStarts(const std::vector<uint8_t>& b) {
+  static const uint8_t sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  std::vector<size_t> at;
+  for (size_t i = 0; i + 8 <= b.size(); ++i)
+    if (std::equal(sig, sig + 8, b.begin() + static_cast<std::ptrdiff_t>(i))) at.push_back(i);
+  return at;
+}
+
+// Frame i's row in the FRMS table (after the 40-byte header and HEAD).
+size_t FrameRow(size_t i) { return kEnvelopeHeaderBytes + 16 + 96 + 16 + 48 * i; }
+
+TEST(WindowCodec, PngFramesRoundTripExactlyInFewerBytes) {
+  ImageWindow w = MixedWindow(6);
+  w.frames[5].image = cv::Mat(5, 6, CV_32FC1, cv::Scalar(0.25f));  // PNG cannot hold it: raw
+  const auto png = EncodeWindow(w, WindowPixels::kPng);
+  const auto raw = EncodeWindow(w);
+  EXPECT_EQ(PngStarts(png).size(), 4u);  // frames 0, 1, 3, 4
+  EXPECT_TRUE(PngStarts(raw).empty());
+  EXPECT_LT(png.size(), raw.size());
+  ImageWindow view;
+  ExpectDecodesTo(png, w, &view);
+  // The raw float frame is still read in place; PNG frames have their own memory.
+  EXPECT_TRUE(view.frames[5].image.data >= png.data() && view.frames[5].image.data < png.data() + png.size());
+  EXPECT_FALSE(view.frames[0].image.data >= png.data() && view.frames[0].image.data < png.data() + png.size());
+
+  // A 640x480 frame of smooth shading and noise of a few grey levels, as a
+  // camera gives: PNG holds it in well under the raw bytes.
+  ImageWindow cam = MakeWindow(1, 1, 640, 480);
+  cv::Mat noise(480, 640, CV_8UC1);
+  cv::RNG rng(1);
+  rng.fill(noise, cv::RNG::NORMAL, 0, 2);
+  cam.frames[0].image = cam.frames[0].image / 2 + noise;
+  const auto cam_png = EncodeWindow(cam, WindowPixels::kPng);
+  EXPECT_LT(cam_png.size(), EncodedWindowSize(cam) * 3 / 4);
+  ExpectDecodesTo(cam_png, cam, &view);
+}
+
+TEST(WindowCodec, VersionOneRecordsStillDecode) {
+  const ImageWindow w = MakeWindow(2, 3);
+  auto b = EncodeWindow(w);
+  b[8] = 1;  // u16 version after magic and kind
+  b[9] = 0;
+  FinishEnvelope(b.data(), b.size());
+  ImageWindow out;
+  std::string err;
+  ASSERT_TRUE(DecodeWindow(b.data(), b.size(), &out, true, &err)) << err;
+  ExpectWindowEqual(w, out);
+}
+
+TEST(WindowCodec, BadPngFramesAreNamedErrors) {
+  const ImageWindow w = MakeWindow(3, 2, 64, 48);
+  const auto good = EncodeWindow(w, WindowPixels::kPng);
+  const std::vector<size_t> at = PngStarts(good);
+  ASSERT_EQ(at.size(), 2u);
+  ImageWindow out;
+  std::string err;
+
+  auto b = good;  // pixel data flipped (PNG bytes are not checksummed by the envelope)
+  b[at[1] + 60] ^= 0x5a;
+  EXPECT_FALSE(DecodeWindow(b.data(), b.size(), &out, false, &err));
+  EXPECT_NE(err.find("frame 1"), std::string::npos) << err;
+
+  b = good;  // the PNG's own header disagrees with the frame table
+  b[at[0] + 23] ^= 1;  // IHDR height
+  EXPECT_FALSE(DecodeWindow(b.data(), b.size(), &out, false, &err));
+  EXPECT_NE(err.find("frame 0: not a PNG of 64x48"), std::string::npos) << err;
+
+  // Metadata changed and its checksum made good again: frame, encoding, rows, cols.
+  const auto patch = [&](size_t frame, uint16_t enc, int32_t rows, int32_t cols) {
+    auto c = good;
+    std::memcpy(&c[FrameRow(frame) + 18], &enc, 2);
+    std::memcpy(&c[FrameRow(frame) + 20], &rows, 4);
+    std::memcpy(&c[FrameRow(frame) + 24], &cols, 4);
+    FinishEnvelope(c.data(), c.size());
+    return c;
+  };
+  // A few PNG bytes must not claim gigabytes.
+  b = patch(0, 1, 100000, 100000);
+  EXPECT_FALSE(DecodeWindow(b.data(), b.size(), &out, false, &err));
+  EXPECT_NE(err.find("frame 0: image too large"), std::string::npos) << err;
+  // An encoding this version does not know.
+  b = patch(1, 7, 48, 64);
+  EXPECT_FALSE(DecodeWindow(b.data(), b.size(), &out, false, &err));
+  EXPECT_NE(err.find("frame 1: unknown pixel encoding 7"), std::string::npos) << err;
+  // Raw pixels labelled PNG.
+  const auto raw = EncodeWindow(w);
+  b = raw;
+  const uint16_t png = 1;
+  std::memcpy(&b[FrameRow(0) + 18], &png, 2);
+  FinishEnvelope(b.data(), b.size());
+  EXPECT_FALSE(DecodeWindow(b.data(), b.size(), &out, false, &err));
+  EXPECT_NE(err.find("frame 0: not a PNG"), std::string::npos) << err;
+
+  // Truncations and flips anywhere never crash.
+  for (size_t n = 0; n < good.size(); n += 7) EXPECT_FALSE(DecodeWindow(good.data(), n, &out, false, &err));
+  std::mt19937 rng(5);
+  for (int t = 0; t < 500; ++t) {
+    b = good;
+    b[at[0] + rng() % (b.size() - at[0])] = static_cast<uint8_t>(rng());
+    DecodeWindow(b.data(), b.size(), &out, t % 2 == 0, &err);
+  }
 }
 
 TEST(WindowCodec, FuzzTruncationsAndFlipsNeverCrash) {

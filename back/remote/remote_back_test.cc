@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -21,6 +22,7 @@
 #include "common/timestamp.h"
 #include "ipc/channels.h"
 #include "ipc/submap_codec.h"
+#include "ipc/window_codec.h"
 
 namespace fs = std::filesystem;
 
@@ -193,6 +195,8 @@ class RemoteBackTest : public ::testing::Test {
     EXPECT_EQ(rs["windows_done"], 2);
     EXPECT_EQ(rs["windows_failed"], 1);  // window 9: no model, as locally
     EXPECT_EQ(rs["submaps_sent"], 2);
+    std::map<int64_t, uint64_t> png_bytes;
+    for (const ImageWindow& w : Windows()) png_bytes[w.id] = EncodeWindow(w, WindowPixels::kPng).size();
     std::set<int64_t> ids;
     for (const auto& w : rs["per_window"]) {
       ids.insert(w["window_id"].get<int64_t>());
@@ -200,7 +204,11 @@ class RemoteBackTest : public ::testing::Test {
       // Window 7 went out again after the kill (a worker starved past the
       // lease on a loaded machine may add an offer anywhere: not a failure).
       EXPECT_GE(w["remote"]["offers"].get<int>(), w["window_id"] == 7 ? 2 : 1) << w.dump();
-      EXPECT_GE(w["remote"]["bytes_out"].get<uint64_t>(), 4u * 64 * 48) << w.dump();  // at least the pixels
+      // Whole windows with PNG frames (back.remote_png, the default) crossed the wire.
+      const uint64_t out = w["remote"]["bytes_out"].get<uint64_t>();
+      ASSERT_TRUE(png_bytes.count(w["window_id"].get<int64_t>())) << w.dump();
+      const uint64_t one = png_bytes.at(w["window_id"].get<int64_t>());
+      EXPECT_TRUE(out > 0 && out % one == 0) << out << " bytes out, " << one << " per window: " << w.dump();
       EXPECT_GT(w["remote"]["bytes_in"].get<uint64_t>(), 0u) << w.dump();
     }
     EXPECT_EQ(ids, (std::set<int64_t>{7, 8, 9})) << "each window once";

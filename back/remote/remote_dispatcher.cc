@@ -86,7 +86,7 @@ void RemoteDispatcher::TakeProgress(const std::string& worker, int64_t window_id
 
 bool RemoteDispatcher::Build(const ImageWindow& w, int64_t first_submap_id, const std::atomic<bool>* cancel,
                              const std::function<void(const std::string&)>& stage, BackResult* result) {
-  const std::vector<uint8_t> bytes = EncodeWindow(w);
+  const std::vector<uint8_t> bytes = EncodeWindow(w, back_.remote_png ? WindowPixels::kPng : WindowPixels::kRaw);
   const auto cancelled = [&] { return cancel && cancel->load(); };
   const auto say = [&](const std::string& s) {
     if (stage) stage(s);
@@ -130,8 +130,10 @@ bool RemoteDispatcher::Build(const ImageWindow& w, int64_t first_submap_id, cons
     cost.claim_wait_s += Since(offered);
     Grant(w.id, attempt, worker);
     Offer(-1, 0, 0, 0, 0);
-    spdlog::info("back: window {} ({} frames, {:.1f} MB) granted to remote worker {} (attempt {})", w.id,
-                 w.frames.size(), bytes.size() / 1e6, worker, attempt);
+    spdlog::info("back: window {} ({} frames, {:.1f} MB{}) granted to remote worker {} (attempt {})", w.id,
+                 w.frames.size(), bytes.size() / 1e6,
+                 back_.remote_png ? fmt::format(" with PNG frames, {:.1f} MB raw", EncodedWindowSize(w) / 1e6) : "",
+                 worker, attempt);
     auto last_seen = Clock::now();
     std::string remote_stage = "receiving";
     const auto alive = [&] {
