@@ -22,6 +22,8 @@ const OptionSpec<ManagerOptions>& ManagerOptions::Spec() {
               "a merge needs an inlier ratio strictly above this");
     s->Flag("verify_merges", &O::verify_merges, "verify a refined merge before committing it");
     s->Number("verify_min_inliers", &O::verify_min_inliers, AtLeast(0), AtMost(1000000), "verification: inliers");
+    s->Number("verify_min_kept_ratio", &O::verify_min_kept_ratio, AtLeast(0.0), AtMost(1.0),
+              "verification: share of the alignment's inliers that still agree after refinement");
     s->Number("verify_max_rmse_px", &O::verify_max_rmse_px, Above(0.0), AtMost(1000.0),
               "verification: refined reprojection RMSE, px");
     s->Number("verify_max_pose_angle_deg", &O::verify_max_pose_angle_deg, Above(0.0), AtMost(180.0),

@@ -31,13 +31,16 @@ struct ManagerOptions {
   // ... and an inlier ratio strictly above this.
   double min_inlier_ratio = 0.1;
   // Verification after refinement (manager/merge_verify.h): a merge needs
-  // verify_min_inliers inliers, a refined reprojection RMSE of at most
+  // verify_min_inliers inliers, verify_min_kept_ratio of them still in
+  // agreement in 3D under the refined Sim(3) (right merges keep 88-98 %, the
+  // harmful one of 2026-11-28 kept 14 of 42), a refined reprojection RMSE of at most
   // verify_max_rmse_px, and paired poses (the same image in both submaps)
   // that agree under the Sim(3): within verify_max_pose_angle_deg and
   // verify_max_pose_offset x the back scene radius, for at least
   // verify_min_agreeing_pairs pairs and verify_min_agreeing_ratio of them.
   bool verify_merges = true;
   int verify_min_inliers = 20;
+  double verify_min_kept_ratio = 0.5;
   double verify_max_rmse_px = 3.0;
   double verify_max_pose_angle_deg = 5.0;
   double verify_max_pose_offset = 0.1;

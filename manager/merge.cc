@@ -40,28 +40,36 @@ bool JoinComponents(GlobalMap* map, int front, int back, const Sim3& S_bf) {
   return front_moved;
 }
 
-void CommitMerge(GlobalMap* map, int front, int back, const std::vector<PointMatch>& matches,
-                 const std::vector<char>& inliers, double fuse_threshold, const std::vector<int64_t>& seeds,
-                 const ManagerOptions& options, MergeReport* report) {
-  MergeReport& r = *report;
-  r.front_moved = JoinComponents(map, front, back, r.S_bf);
-
-  // Fuse matched inliers that still agree in 3D after refinement: the front
-  // duplicate takes the back point's position and is linked to it.
-  const auto t0 = std::chrono::steady_clock::now();
-  Submap& Fm = map->submap(front);
-  const Submap& B = map->submap(back);
-  const SubmapIndex fi(Fm), bi(B);
-  const Sim3 S_fb = r.S_bf.Inverse();
-  std::vector<std::pair<int64_t, int64_t>> fused;
+std::vector<std::pair<int, int>> AgreeingInliers(const Submap& F, const Submap& B,
+                                                 const std::vector<PointMatch>& matches,
+                                                 const std::vector<char>& inliers, const Sim3& S_bf, double threshold) {
+  const SubmapIndex fi(F), bi(B);
+  std::vector<std::pair<int, int>> out;
   for (size_t m = 0; m < matches.size(); ++m) {
     if (!inliers[m]) continue;
     const int f = fi.Point(matches[m].front_point_id), b = bi.Point(matches[m].back_point_id);
     if (f < 0 || b < 0) continue;
-    if ((r.S_bf * Fm.points[f].position - B.points[b].position).norm() > fuse_threshold) continue;
-    Fm.points[f].position = S_fb * B.points[b].position;
-    fused.emplace_back(Fm.points[f].id, B.points[b].id);
-    map->fused().push_back({front, Fm.points[f].id, back, B.points[b].id});
+    if ((S_bf * F.points[f].position - B.points[b].position).norm() <= threshold) out.emplace_back(f, b);
+  }
+  return out;
+}
+
+void CommitMerge(GlobalMap* map, int front, int back, const std::vector<std::pair<int, int>>& agreeing,
+                 const std::vector<int64_t>& seeds, const ManagerOptions& options, MergeReport* report) {
+  MergeReport& r = *report;
+  r.front_moved = JoinComponents(map, front, back, r.S_bf);
+
+  // Fuse the inliers that still agree in 3D after refinement: the front
+  // duplicate takes the back point's position and is linked to it.
+  const auto t0 = std::chrono::steady_clock::now();
+  Submap& Fm = map->submap(front);
+  const Submap& B = map->submap(back);
+  const Sim3 S_fb = r.S_bf.Inverse();
+  std::vector<std::pair<int64_t, int64_t>> fused;
+  for (const auto& [f, b] : agreeing) {
+    Fm.points[size_t(f)].position = S_fb * B.points[size_t(b)].position;
+    fused.emplace_back(Fm.points[size_t(f)].id, B.points[size_t(b)].id);
+    map->fused().push_back({front, Fm.points[size_t(f)].id, back, B.points[size_t(b)].id});
   }
   r.fused_points = int(fused.size());
 
@@ -109,8 +117,9 @@ MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& sear
   r.refined = true;
   r.refine_initial_rmse_px = refine.initial_rmse_px;
   r.refine_final_rmse_px = refine.final_rmse_px;
-  const MergeVerification v =
-      VerifyMerge(F, B, pairs, frame_pairs, r.S_bf, r.inliers, r.refine_final_rmse_px, options);
+  const auto agreeing = AgreeingInliers(F, B, common.matches, align.inliers, r.S_bf, align.inlier_threshold);
+  const MergeVerification v = VerifyMerge(F, B, pairs, frame_pairs, r.S_bf, r.inliers, int(agreeing.size()),
+                                          r.refine_final_rmse_px, options);
   r.pose_pairs = v.pose_pairs;
   r.agreeing_pairs = v.agreeing_pairs;
   r.pose_angle_deg = v.median_angle_deg;
@@ -124,7 +133,7 @@ MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& sear
   for (const auto& p : pairs) seeds.push_back(F.keyframes[p.front_keyframe].id);
   for (const auto& p : frame_pairs)
     for (int k : p.front_keyframes) seeds.push_back(F.keyframes[k].id);
-  CommitMerge(map, front, back, common.matches, align.inliers, align.inlier_threshold, seeds, options, &r);
+  CommitMerge(map, front, back, agreeing, seeds, options, &r);
   r.merged = true;
   spdlog::info(
       "merged {} with {} ({} side moved): {} + {} frame pairs, {} common points, inlier ratio {:.2f} ({}), scale {:.4f}, refine rmse "

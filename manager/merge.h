@@ -65,14 +65,20 @@ MergeReport RejectMerge(MergeReport r, const char* kind, const std::string& why)
 // S_gb * S_bf = S_gf. Returns whether the front side moved.
 bool JoinComponents(GlobalMap* map, int front, int back, const Sim3& S_bf);
 
+// The inliers of an alignment that still agree in 3D under S_bf (the
+// refined Sim(3)): within `threshold` (back units, the alignment's own
+// inlier distance). As (front point index, back point index), in match order.
+std::vector<std::pair<int, int>> AgreeingInliers(const Submap& front, const Submap& back,
+                                                 const std::vector<PointMatch>& matches,
+                                                 const std::vector<char>& inliers, const Sim3& S_bf, double threshold);
+
 // The common tail of every merge, once r.S_bf (front frame -> back frame) is
-// refined: moves the smaller component, joins the two, fuses the matched
-// inliers that agree within fuse_threshold (back units) and runs the welding
-// BA around the seed keyframes of `front`. Fills the report's fused_points,
-// front_moved, welding and seconds_weld.
-void CommitMerge(GlobalMap* map, int front, int back, const std::vector<PointMatch>& matches,
-                 const std::vector<char>& inliers, double fuse_threshold, const std::vector<int64_t>& seeds,
-                 const ManagerOptions& options, MergeReport* report);
+// refined: moves the smaller component, joins the two, fuses the `agreeing`
+// points (AgreeingInliers) and runs the welding BA around the seed
+// keyframes of `front`. Fills the report's fused_points, front_moved,
+// welding and seconds_weld.
+void CommitMerge(GlobalMap* map, int front, int back, const std::vector<std::pair<int, int>>& agreeing,
+                 const std::vector<int64_t>& seeds, const ManagerOptions& options, MergeReport* report);
 
 // Re-expresses a submap by S (poses, points, frame records): for export and
 // for tests; the global map itself keeps submaps in their own frames.

@@ -18,7 +18,7 @@ void PoseDisagreement(const Se3& T_wc_front, const Se3& T_wc_back, const Sim3& S
 
 MergeVerification VerifyMerge(const Submap& front, const Submap& back, const std::vector<KeyframePair>& pairs,
                               const std::vector<FramePair>& frame_pairs, const Sim3& S_bf, int inliers,
-                              double rmse_px, const ManagerOptions& o) {
+                              int kept, double rmse_px, const ManagerOptions& o) {
   MergeVerification v;
   std::vector<Eigen::Vector3d> points;
   points.reserve(back.points.size());
@@ -44,6 +44,10 @@ MergeVerification VerifyMerge(const Submap& front, const Submap& back, const std
   if (inliers < o.verify_min_inliers) {
     v.check = "inliers";
     v.why = fmt::format("{} inliers < {}", inliers, o.verify_min_inliers);
+  } else if (kept < o.verify_min_kept_ratio * inliers) {
+    v.check = "kept";
+    v.why = fmt::format("{} of {} inliers still agree after refinement, under {:.0f} %", kept, inliers,
+                        100.0 * o.verify_min_kept_ratio);
   } else if (rmse_px > o.verify_max_rmse_px) {
     v.check = "rmse";
     v.why = fmt::format("refined reprojection RMSE {:.2f} px > {:.2f} px", rmse_px, o.verify_max_rmse_px);

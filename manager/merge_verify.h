@@ -17,7 +17,7 @@ namespace rumi {
 
 struct MergeVerification {
   bool ok = false;
-  std::string check;  // the failing check: "inliers", "rmse", "pose_pairs" (empty when ok)
+  std::string check;  // the failing check: "inliers", "kept", "rmse", "pose_pairs" (empty when ok)
   std::string why;    // human-readable, with the figures
   int pose_pairs = 0;        // keyframe + frame pairs compared
   int agreeing_pairs = 0;    // pairs within both pose tolerances
@@ -30,11 +30,13 @@ struct MergeVerification {
 void PoseDisagreement(const Se3& T_wc_front, const Se3& T_wc_back, const Sim3& S_bf, double scene_radius,
                       double* angle_deg, double* offset_ratio);
 
-// inliers / rmse_px: the alignment's inlier count and the refined
-// reprojection RMSE. Pairs are those the merge used (front kf or tracked
-// frame <-> back keyframe).
+// inliers: the alignment's (RANSAC) inlier count; kept: how many of them
+// still agree in 3D under the refined S_bf (what the merge would fuse; a
+// refinement that pulls away from the points it was fitted to is a wrong
+// alignment); rmse_px: the refined reprojection RMSE. Pairs are those the
+// merge used (front kf or tracked frame <-> back keyframe).
 MergeVerification VerifyMerge(const Submap& front, const Submap& back, const std::vector<KeyframePair>& pairs,
                               const std::vector<FramePair>& frame_pairs, const Sim3& S_bf, int inliers,
-                              double rmse_px, const ManagerOptions& options);
+                              int kept, double rmse_px, const ManagerOptions& options);
 
 }  // namespace rumi

@@ -22,8 +22,10 @@ struct Fixture {
     frame_pairs = PairTrackedFrames(F, B, set, 100000, pairs, 3);
     S_true = s.S_bw * s.S_aw.Inverse();
   }
-  MergeVerification Verify(const Sim3& S, int inliers = 200, double rmse = 1.0, ManagerOptions o = {}) const {
-    return VerifyMerge(s.front_a.submap, s.back.submap, pairs, frame_pairs, S, inliers, rmse, o);
+  MergeVerification Verify(const Sim3& S, int inliers = 200, double rmse = 1.0, ManagerOptions o = {},
+                           int kept = -1) const {
+    return VerifyMerge(s.front_a.submap, s.back.submap, pairs, frame_pairs, S, inliers, kept < 0 ? inliers : kept,
+                       rmse, o);
   }
 };
 
@@ -57,6 +59,16 @@ TEST(MergeVerify, EachCheckRejectsWhatItGuards) {
   // Too few inliers, too large an RMSE.
   v = f.Verify(f.S_true, 19, 1.0);
   EXPECT_EQ(v.check, "inliers") << v.why;
+  // Inliers the refinement pulled away from: at least half must still agree
+  // (the harmful merge of 2026-11-28 kept 14 of 42; right merges keep
+  // 88-98 %).
+  v = f.Verify(f.S_true, 42, 1.0, {}, 14);
+  EXPECT_EQ(v.check, "kept") << v.why;
+  EXPECT_NE(v.why.find("14 of 42 inliers still agree after refinement, under 50 %"), std::string::npos) << v.why;
+  v = f.Verify(f.S_true, 100, 1.0, {}, 40);
+  EXPECT_EQ(v.check, "kept") << v.why;
+  EXPECT_NE(v.why.find("40 of 100 inliers still agree after refinement, under 50 %"), std::string::npos) << v.why;
+  EXPECT_TRUE(f.Verify(f.S_true, 100, 1.0, {}, 88).ok);
   v = f.Verify(f.S_true, 200, 3.82);
   EXPECT_EQ(v.check, "rmse") << v.why;
   // A merge may carry a few bad pairs (a front frame tracked badly) when the
@@ -100,20 +112,27 @@ TEST(MergeVerify, MergePairRejectsAWrongBackSubmapAndKeepsTheRightOne) {
     T_wc.translation() += T_wc.R().col(2) * 0.25 * radius;
     kf.T_cw = T_wc.Inverse();
   }
-  for (bool verify : {false, true}) {
+  // Verification off; on; on with only the pose check left.
+  for (int mode : {0, 1, 2}) {
     GlobalMap map;
     const int a = map.AddSubmap(s.front_a.submap);
     const int k = map.AddSubmap(broken);
     const SearchSet set = BuildSearchSet({&map.submap(a)}, {&map.submap(k)}, 10);
     ManagerOptions o;
-    o.verify_merges = verify;
-    o.verify_max_rmse_px = 1000;  // show that the pose check alone catches it
+    o.verify_merges = mode > 0;
+    if (mode == 2) {
+      o.verify_max_rmse_px = 1000;
+      o.verify_min_inliers = 0;
+      o.verify_min_kept_ratio = 0;
+    }
     const MergeReport r = MergePair(&map, a, k, set, o);
-    if (!verify) {
+    if (mode == 0) {
       EXPECT_TRUE(r.merged) << "without verification the broken model merges: " << r.reason;
     } else {
       EXPECT_FALSE(r.merged);
-      EXPECT_EQ(r.rejected_by, "pose_pairs") << r.reason;
+      // The refinement, pulled by the displaced cameras, leaves none of the
+      // RANSAC's 3D inliers in place; without that check the poses catch it.
+      EXPECT_EQ(r.rejected_by, mode == 1 ? "kept" : "pose_pairs") << r.reason;
       EXPECT_FALSE(map.Connected(a, k));
       EXPECT_TRUE(map.fused().empty());
     }

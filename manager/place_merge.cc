@@ -139,18 +139,15 @@ MergeReport PlaceMergePair(GlobalMap* map, int a, int b, const ManagerOptions& o
     return Reject(r, "refined reprojection RMSE " + std::to_string(refine.final_rmse_px) + " px > " +
                          std::to_string(options.place_max_rmse_px));
   // The refined Sim(3) must still hold the RANSAC's support.
-  std::vector<char> inliers(matches.size(), 0);
-  int kept = 0;
-  for (size_t i = 0; i < matches.size(); ++i)
-    if (rs.inliers[i] && (r.S_bf * src[i] - dst[i]).norm() < threshold) inliers[i] = 1, ++kept;
+  const auto agreeing = AgreeingInliers(A, B, matches, rs.inliers, r.S_bf, threshold);
+  const int kept = int(agreeing.size());
   if (kept < options.place_min_inliers)
     return Reject(r, "refined Sim(3) keeps " + std::to_string(kept) + " inliers");
   r.inliers = kept;
 
   std::vector<int64_t> matched;
-  for (size_t i = 0; i < matches.size(); ++i)
-    if (inliers[i]) matched.push_back(matches[i].front_point_id);
-  CommitMerge(map, a, b, matches, inliers, threshold, SeedKeyframes(A, matched, 10), options, &r);
+  for (const auto& fb : agreeing) matched.push_back(A.points[size_t(fb.first)].id);
+  CommitMerge(map, a, b, agreeing, SeedKeyframes(A, matched, 10), options, &r);
   r.merged = true;
   spdlog::info(
       "place merge {} with {} ({} side moved): {} descriptor matches, {} inliers ({:.2f}), scale {:.4f}, refine rmse "
