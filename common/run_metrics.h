@@ -60,7 +60,7 @@ struct MergeAuditRow {
   std::string a, b;  // "front#3", "back#1"
   bool accepted = false;
   std::string reason;       // why it was rejected (empty when accepted)
-  std::string rejected_by;  // the verification check, when one rejected it
+  std::string rejected_by;  // the verification check or "alignment", when one rejected it
   size_t a_frames = 0, b_frames = 0;  // frames with ground truth
   std::optional<double> ate_a, ate_b;  // each side on its own (before)
   std::optional<double> ate_joint;     // both sides, one alignment (after)

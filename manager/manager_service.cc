@@ -59,9 +59,13 @@ nlohmann::json ReportJson(const MergeReport& r) {
                       {"agreeing_pairs", r.agreeing_pairs},
                       {"pose_angle_deg", r.pose_angle_deg},
                       {"pose_offset_ratio", r.pose_offset_ratio}};
-  // Also for a merge rejected after refinement: the merge audit
-  // (merge_audit.h) measures what accepting it would have done.
-  if (r.merged || r.refined) j["S_bf"] = Sim3ToJson(r.S_bf);
+  // Also for a merge rejected after refinement, or by the alignment (then
+  // only its candidate): the merge audit (merge_audit.h) measures what
+  // accepting it would have done.
+  if (r.merged || r.refined)
+    j["S_bf"] = Sim3ToJson(r.S_bf);
+  else if (r.aligned)
+    j["S_bf_initial"] = Sim3ToJson(r.S_bf_initial);
   return j;
 }
 

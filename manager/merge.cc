@@ -106,8 +106,12 @@ MergeReport MergePair(GlobalMap* map, int front, int back, const SearchSet& sear
   r.inlier_ratio = align.inlier_ratio;
   r.init_method = align.method;
   r.S_bf_initial = align.S_bf;
+  r.aligned = !align.method.empty();
   r.seconds_align = SecondsSince(t0);
-  if (!align.ok) return Reject(r, align.reason);
+  if (!align.ok) {
+    if (r.aligned) r.rejected_by = "alignment";
+    return Reject(r, align.reason);
+  }
 
   t0 = std::chrono::steady_clock::now();
   const Sim3RefineResult refine = RefineSim3(F, B, common.matches, &align.inliers, align.S_bf, options);

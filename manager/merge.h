@@ -20,8 +20,10 @@ struct MergeReport {
   bool merged = false;
   std::string kind = "merge";  // "merge" (back <-> front), "place" or "odometry"
   std::string reason;  // why not (empty when merged)
-  // The verification check that rejected it ("inliers", "rmse", "pose_pairs";
-  // merge_verify.h), empty when none did.
+  // What rejected it: a verification check ("inliers", "rmse", "pose_pairs",
+  // "kept"; merge_verify.h), or "alignment" when the initial Sim(3) was found
+  // but refused before refinement (too few inliers, inlier ratio); empty
+  // otherwise.
   std::string rejected_by;
   SubmapKey front, back;
   int keyframe_pairs = 0;
@@ -31,6 +33,9 @@ struct MergeReport {
   double inlier_ratio = 0;
   std::string init_method;
   Sim3 S_bf_initial, S_bf;  // front frame -> back frame, before/after refinement
+  // S_bf_initial holds the alignment's Sim(3) candidate, also when the
+  // alignment then refused it: the merge audit measures what it would do.
+  bool aligned = false;
   double refine_initial_rmse_px = 0, refine_final_rmse_px = 0;
   bool refined = false;  // S_bf holds a refined Sim(3) (also when rejected after it)
   int pose_pairs = 0, agreeing_pairs = 0;  // verification: paired poses compared / agreeing

@@ -67,7 +67,10 @@ std::vector<MergeAttempt> ReadMergeAttempts(const std::string& path) {
     if (!j.contains("merge_reports") || !j["merge_reports"].is_array())
       throw std::runtime_error("no \"merge_reports\" array");
     for (const auto& r : j["merge_reports"]) {
-      if (!r.contains("S_bf")) continue;
+      // A refined (or merged) attempt has S_bf; one the alignment refused
+      // only its candidate, S_bf_initial.
+      const char* key = r.contains("S_bf") ? "S_bf" : r.contains("S_bf_initial") ? "S_bf_initial" : nullptr;
+      if (!key) continue;
       MergeAttempt a;
       a.kind = r.value("kind", "merge");
       a.a = r.at("front").get<std::string>();
@@ -76,7 +79,7 @@ std::vector<MergeAttempt> ReadMergeAttempts(const std::string& path) {
       a.reason = r.value("reason", "");
       a.rejected_by = r.value("rejected_by", "");
       a.has_transform = true;
-      a.S_ba = Sim3FromJson(r.at("S_bf"));
+      a.S_ba = Sim3FromJson(r.at(key));
       out.push_back(a);
     }
   } catch (const nlohmann::json::exception& e) {
@@ -90,7 +93,7 @@ std::vector<MergeAttempt> ReadMergeAttempts(const std::string& path) {
 std::vector<MergeAttempt> AttemptsOf(const std::vector<MergeReport>& reports) {
   std::vector<MergeAttempt> out;
   for (const MergeReport& r : reports) {
-    if (!r.merged && !r.refined) continue;
+    if (!r.merged && !r.refined && !r.aligned) continue;
     MergeAttempt a;
     a.kind = r.kind;
     a.a = ToString(r.front);
@@ -99,7 +102,7 @@ std::vector<MergeAttempt> AttemptsOf(const std::vector<MergeReport>& reports) {
     a.reason = r.reason;
     a.rejected_by = r.rejected_by;
     a.has_transform = true;
-    a.S_ba = r.S_bf;
+    a.S_ba = r.merged || r.refined ? r.S_bf : r.S_bf_initial;
     out.push_back(a);
   }
   return out;

@@ -1,7 +1,9 @@
 #pragma once
 // The merge audit of `rumi eval run`: for every merge attempt of a run that
-// reached a Sim(3) (accepted, or rejected by the verification), what
-// accepting it does to the map, measured against the ground truth.
+// reached a Sim(3) (accepted; rejected by the verification, with its refined
+// Sim(3); or refused by the alignment, with the candidate it refused: too few
+// inliers, a low inlier ratio), what accepting it does to the map, measured
+// against the ground truth.
 //
 // The two sides are taken from the raw map (every submap as received, in its
 // own frame, before any merge): side b = all posed frames of the back submap
@@ -61,7 +63,8 @@ struct MergeAttempt {
 // with a "merge_reports" array. Attempts without a Sim(3) are skipped.
 std::vector<MergeAttempt> ReadMergeAttempts(const std::string& manager_stats_path);
 
-// The attempts of a manager's reports that got a Sim(3) (merged or refined).
+// The attempts of a manager's reports that got a Sim(3) (merged, refined, or
+// the alignment's candidate).
 std::vector<MergeAttempt> AttemptsOf(const std::vector<MergeReport>& reports);
 
 // Submaps named in an attempt but absent from `raw` give a row with a note.

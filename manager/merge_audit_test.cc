@@ -75,6 +75,48 @@ TEST(MergeAudit, ABrokenBackSubmapIsHarmfulEvenWhenNoWorseJoined) {
   EXPECT_FALSE(rows[0].harmful);
 }
 
+// A merge the alignment refuses still has a candidate Sim(3); the audit
+// measures it, so a run says what refusing it cost. Here the right merge,
+// refused by an inlier-ratio bar nothing can pass: audited, not harmful.
+TEST(MergeAudit, AnAttemptRefusedByTheAlignmentIsAuditedWithItsCandidate) {
+  const Fixture f;
+  GlobalMap map;
+  const int a = map.AddSubmap(f.s.front_a.submap);
+  const int b = map.AddSubmap(f.s.back.submap);
+  ManagerOptions o;
+  o.min_inlier_ratio = 1.0;
+  const MergeReport r =
+      MergePair(&map, a, b, BuildSearchSet({&map.submap(a)}, {&map.submap(b)}, 10), o);
+  ASSERT_FALSE(r.merged);
+  EXPECT_FALSE(r.refined);
+  EXPECT_TRUE(r.aligned);
+  EXPECT_EQ(r.rejected_by, "alignment");
+  EXPECT_NE(r.reason.find("inlier ratio"), std::string::npos) << r.reason;
+  EXPECT_LT((r.S_bf_initial.Matrix() - f.S_true.Matrix()).norm(), 0.05 * f.S_true.Matrix().norm());
+
+  const auto attempts = AttemptsOf({r});
+  ASSERT_EQ(attempts.size(), 1u);
+  EXPECT_FALSE(attempts[0].merged);
+  EXPECT_TRUE(attempts[0].S_ba.Matrix().isApprox(r.S_bf_initial.Matrix()));
+  const auto rows = AuditMerges(f.raw, attempts, f.gt);
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_FALSE(rows[0].accepted);
+  EXPECT_EQ(rows[0].rejected_by, "alignment");
+  ASSERT_TRUE(rows[0].ate_joint) << rows[0].note;
+  EXPECT_FALSE(rows[0].harmful) << *rows[0].ate_joint;
+
+  // One refused before any Sim(3) (too few common points) is not an attempt to audit.
+  GlobalMap map2;
+  const int a2 = map2.AddSubmap(f.s.front_a.submap), b2 = map2.AddSubmap(f.s.back.submap);
+  o = ManagerOptions();
+  o.min_common_points = 1000000;
+  const MergeReport r2 =
+      MergePair(&map2, a2, b2, BuildSearchSet({&map2.submap(a2)}, {&map2.submap(b2)}, 10), o);
+  EXPECT_FALSE(r2.aligned);
+  EXPECT_TRUE(r2.rejected_by.empty());
+  EXPECT_TRUE(AttemptsOf({r2}).empty());
+}
+
 TEST(MergeAudit, MissingSubmapsAndTruthAreNotedNotThrown) {
   const Fixture f;
   MergeAttempt m = f.Attempt(f.S_true, true);
@@ -91,19 +133,23 @@ TEST(MergeAudit, ReadsTheManagersMergeReports) {
   const auto dir = std::filesystem::temp_directory_path() / ("rumi_merge_audit_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   const auto path = (dir / "manager_stats.json").string();
-  std::ofstream(path) << R"({"merge_reports": [
+  std::ofstream(path) << R"j({"merge_reports": [
     {"kind": "merge", "front": "front#1", "back": "back#1", "merged": true, "reason": "", "rejected_by": "",
      "S_bf": {"s": 2.0, "q_xyzw": [0, 0, 0, 1], "t": [1, 2, 3]}},
     {"kind": "merge", "front": "front#2", "back": "back#1", "merged": false, "reason": "too few keyframe pairs"},
     {"kind": "merge", "front": "front#3", "back": "back#1", "merged": false, "reason": "verification (rmse): x",
-     "rejected_by": "rmse", "S_bf": {"s": 1.0, "q_xyzw": [0, 0, 0, 1], "t": [0, 0, 0]}}]})";
+     "rejected_by": "rmse", "S_bf": {"s": 1.0, "q_xyzw": [0, 0, 0, 1], "t": [0, 0, 0]}},
+    {"kind": "merge", "front": "front#4", "back": "back#1", "merged": false, "reason": "too few inliers (18 < 20)",
+     "rejected_by": "alignment", "S_bf_initial": {"s": 3.0, "q_xyzw": [0, 0, 0, 1], "t": [0, 0, 0]}}]})j";
   const auto a = ReadMergeAttempts(path);
-  ASSERT_EQ(a.size(), 2u);  // the attempt without a Sim(3) is not audited
+  ASSERT_EQ(a.size(), 3u);  // the attempt without a Sim(3) is not audited
   EXPECT_TRUE(a[0].merged);
   EXPECT_DOUBLE_EQ(a[0].S_ba.scale(), 2.0);
   EXPECT_DOUBLE_EQ(a[0].S_ba.translation().y(), 2.0);
   EXPECT_EQ(a[1].a, "front#3");
   EXPECT_EQ(a[1].rejected_by, "rmse");
+  EXPECT_EQ(a[2].rejected_by, "alignment");  // the candidate the alignment refused
+  EXPECT_DOUBLE_EQ(a[2].S_ba.scale(), 3.0);
   std::ofstream(path) << R"({"merges": 3})";
   EXPECT_THROW(ReadMergeAttempts(path), std::runtime_error);
   std::ofstream(path) << "{not json";

@@ -228,9 +228,10 @@ int Main(int argc, char** argv) {
     auto opt = [](const std::optional<double>& v) { return v ? fmt::format("{:.4f}", *v) : std::string("-"); };
     for (const MergeAuditRow& m : AuditMerges(raw, AttemptsOf(reports), gt)) {
       std::cout << fmt::format("audit {} {} + {}: accepted={} frames={}+{} ate_a={} ate_b={} ate_joint={} "
-                               "ate_a_joint={} harmful={}{}\n",
+                               "ate_a_joint={} harmful={}{}{}\n",
                                m.kind, m.a, m.b, m.accepted, m.a_frames, m.b_frames, opt(m.ate_a), opt(m.ate_b),
                                opt(m.ate_joint), opt(m.ate_a_joint), m.harmful,
+                               m.rejected_by.empty() ? "" : " rejected_by=" + m.rejected_by,
                                m.note.empty() ? "" : " note=\"" + m.note + "\"");
     }
   }

@@ -120,12 +120,15 @@ MergeReport PlaceMergePair(GlobalMap* map, int a, int b, const ManagerOptions& o
   r.inliers = rs.num_inliers;
   r.inlier_ratio = double(rs.num_inliers) / double(matches.size());
   r.S_bf_initial = rs.transform;
+  r.aligned = true;
+  r.rejected_by = "alignment";  // until the RANSAC's checks pass
   if (r.inliers < options.place_min_inliers)
     return Reject(r, "too few inliers (" + std::to_string(r.inliers) + " of " + std::to_string(matches.size()) +
                          " < " + std::to_string(options.place_min_inliers) + ")");
   if (r.inlier_ratio < options.place_min_inlier_ratio)
     return Reject(r, "inlier ratio " + std::to_string(r.inlier_ratio) + " < " +
                          std::to_string(options.place_min_inlier_ratio));
+  r.rejected_by.clear();
 
   t0 = std::chrono::steady_clock::now();
   const Sim3RefineResult refine = RefineSim3(A, B, matches, &rs.inliers, rs.transform, options);
