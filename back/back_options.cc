@@ -32,6 +32,9 @@ const OptionSpec<BackOptions>& BackOptions::Spec() {
               "model is cut at a blank stretch (0: never)");
     s->Number("blank_min_frames", &O::blank_min_frames, AtLeast(1), AtMost(100000),
               "consecutive blank frames that make a stretch");
+    s->Number("pose_jump_ratio", &O::pose_jump_ratio, AtLeast(0.0), AtMost(1e6),
+              "a keyframe farther from both time neighbours than this many times the median speed (or step) "
+              "is left out of the back submap (0: keep all)");
     s->Number("min_point_observations", &O::min_point_observations, AtLeast(2), AtMost(100000),
               "points seen by fewer images are dropped");
     s->Number("track_completion_px", &O::track_completion_px, AtLeast(0.0), AtMost(20.0),

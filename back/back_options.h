@@ -40,6 +40,11 @@ struct BackOptions {
   // back/blank_cut.h). The sides become back submaps of their own. 0 = never.
   double blank_max_stddev = 1.0;
   int blank_min_frames = 3;
+  // A keyframe whose centre neither time neighbour can reach (more than
+  // pose_jump_ratio x the median speed x the time apart, or x the median
+  // step) while they agree with each other is left out (back/pose_jumps.h).
+  // 0 = keep every registered frame.
+  double pose_jump_ratio = 10.0;
   // Points seen by fewer images are dropped from the back submap: SfM keeps
   // two-view points that ORB-SLAM's map-point rule would cull (2 keeps all).
   int min_point_observations = 3;

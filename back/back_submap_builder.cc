@@ -15,6 +15,7 @@
 #include <unordered_set>
 
 #include "back/blank_cut.h"
+#include "common/pose_jumps.h"
 #include "back/colmap_database.h"
 #include "back/keyframe_orb.h"
 #include "back/pair_selection.h"
@@ -415,6 +416,15 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
         at.status = BackStatus::kModelError;
         at.message = dir.string() + ": COLMAP changed the fixed intrinsics";
         return at;
+      }
+      const std::vector<size_t> jumps = PoseJumps(b.submap, options_.pose_jump_ratio);
+      if (!jumps.empty()) {
+        std::string which;
+        for (size_t i : jumps) which += (which.empty() ? "" : ", ") + FormatSeconds(b.submap.keyframes[i].timestamp);
+        at.warnings.push_back(sparse.filename().string() + "/" + dir.filename().string() + ": " +
+                              std::to_string(jumps.size()) + " frame(s) registered off the camera path, left out: " +
+                              which);
+        b.stats.registered_images -= DropKeyframesAt(&b.submap, jumps);
       }
       const int completed = CompleteTracks(&b.submap, options_.track_completion_px);
       const int weak = DropWeakPoints(&b.submap, options_.min_point_observations);

@@ -94,6 +94,12 @@ class BackSubmapBuilderTest : public ::testing::Test {
     return "if [ $cmd = feature_extractor ]; then cp " + db.string() + " $(tail -n 1 " +
            (root_ / "args.txt").string() + " | sed 's/.*--database_path \\([^ ]*\\).*/\\1/'); fi\n";
   }
+  // One attempt whose mapper leaves the models under `canned`; no ORB corners.
+  void MapperLeaves(const fs::path& canned) {
+    options_.colmap_path = FakeColmap("if [ $cmd = mapper ]; then cp -r " + canned.string() + "/* $out/; fi");
+    options_.retry_below_registered = 0;
+    options_.orb_features = 0;
+  }
   // The window becomes 9 frames of noise whose frames 3-5 are covered (blank); their timestamps.
   std::vector<Timestamp> CoverFrames3To5() {
     window_.frames.clear();
@@ -555,9 +561,7 @@ TEST_F(BackSubmapBuilderTest, AModelIsCutAtABlankStretch) {
   const std::vector<Timestamp> t = CoverFrames3To5();
   const fs::path canned = root_ / "canned";
   WriteCannedModel(canned / "0", window_.camera, {t[0], t[1], t[2], t[6], t[7], t[8]});
-  options_.colmap_path = FakeColmap("if [ $cmd = mapper ]; then cp -r " + canned.string() + "/* $out/; fi");
-  options_.retry_below_registered = 0;
-  options_.orb_features = 0;
+  MapperLeaves(canned);
   BackResult r = BackSubmapBuilder(options_).Build(window_);
   ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
   ASSERT_EQ(r.submaps.size(), 2u);
@@ -576,6 +580,30 @@ TEST_F(BackSubmapBuilderTest, AModelIsCutAtABlankStretch) {
   window_.frames[5].image.setTo(0);
   options_.blank_max_stddev = 0;
   EXPECT_EQ(BackSubmapBuilder(options_).Build(window_).submaps.size(), 1u);
+}
+
+// A frame COLMAP registered far off the path of its time neighbours
+// (generated corridor seed 5) is left out of the back submap, and said so.
+TEST_F(BackSubmapBuilderTest, AFrameRegisteredOffThePathIsLeftOut) {
+  const std::vector<Timestamp> t = CoverFrames3To5();
+  cv::RNG rng(8);
+  for (int i = 3; i <= 5; ++i) rng.fill(window_.frames[size_t(i)].image, cv::RNG::UNIFORM, 0, 256);  // none blank
+  const fs::path canned = root_ / "canned";
+  WriteCannedModel(canned / "0", window_.camera, {t[0], t[1], t[2], t[3], t[4]}, 100.5, 50.5, 2);
+  MapperLeaves(canned);
+  options_.min_point_observations = 2;
+  BackResult r = BackSubmapBuilder(options_).Build(window_);
+  ASSERT_EQ(r.status, BackStatus::kOk) << r.message;
+  ASSERT_EQ(r.submaps.size(), 1u);
+  ASSERT_EQ(r.submaps[0].keyframes.size(), 4u);
+  for (const Keyframe& k : r.submaps[0].keyframes) EXPECT_NE(k.timestamp, t[2]);
+  EXPECT_EQ(r.stats[0].registered_images, 4);
+  bool warned = false;
+  for (const std::string& w : r.warnings)
+    warned |= w.find("off the camera path") != std::string::npos && w.find(FormatSeconds(t[2])) != std::string::npos;
+  EXPECT_TRUE(warned);
+  options_.pose_jump_ratio = 0;  // off: every registered frame stays
+  EXPECT_EQ(BackSubmapBuilder(options_).Build(window_).submaps[0].keyframes.size(), 5u);
 }
 
 // Each side of a blank stretch is judged on its own, as the parts of a joined

@@ -21,9 +21,11 @@
 namespace rumi {
 
 // Writes a model of one PINHOLE camera, images named by timestamp and one
-// 3D point seen by every image at COLMAP pixel `px`.
+// 3D point seen by every image at COLMAP pixel `px`. Image i's centre is at
+// x = 0.1 i, except image `off_path`'s, 70 away.
 inline void WriteCannedModel(const std::filesystem::path& dir, const PinholeCameraOptions& c,
-                             const std::vector<Timestamp>& stamps, double px_x = 100.5, double px_y = 50.5) {
+                             const std::vector<Timestamp>& stamps, double px_x = 100.5, double px_y = 50.5,
+                             int off_path = -1) {
   std::filesystem::create_directories(dir);
   auto put = [](std::ofstream& o, auto v) { o.write(reinterpret_cast<const char*>(&v), sizeof(v)); };
   {
@@ -40,7 +42,8 @@ inline void WriteCannedModel(const std::filesystem::path& dir, const PinholeCame
     put(o, uint64_t(stamps.size()));
     for (size_t i = 0; i < stamps.size(); ++i) {
       put(o, uint32_t(i + 1));
-      for (double v : {1.0, 0.0, 0.0, 0.0, -0.1 * double(i), 0.0, 0.0}) put(o, v);
+      const double tx = int(i) == off_path ? 70.0 : -0.1 * double(i);
+      for (double v : {1.0, 0.0, 0.0, 0.0, tx, 0.0, 0.0}) put(o, v);
       put(o, uint32_t{1});
       const std::string name = TimestampFileStem(stamps[i]) + ".png";
       o.write(name.c_str(), static_cast<std::streamsize>(name.size() + 1));

@@ -26,6 +26,7 @@
 
 #include "configs/rumi_config.h"
 #include "common/logging.h"
+#include "common/pose_jumps.h"
 #include "common/process/process_info.h"
 #include "manager/global_trajectory.h"
 #include "manager/manager_run.h"
@@ -136,6 +137,7 @@ int Main(int argc, char** argv) {
   std::string map_path, config_path, traj_path, gt_path;
   bool no_frame_pairs = false, no_culling = false;
   int min_back_obs = 0;
+  double jump_ratio = 0;
   double complete_px = 0;
   app.add_option("--map", map_path, "map file to load (e.g. map.rumi.raw)")->required();
   app.add_option("--config", config_path, "rumi YAML config (section manager:)");
@@ -158,6 +160,8 @@ int Main(int argc, char** argv) {
   app.add_flag("--bake", bake,
                "with --session-bench: bake every settled submap into the base after each rebuild (incremental "
                "manager)");
+  app.add_option("--back-pose-jumps", jump_ratio,
+                 "first drop back keyframes registered off the camera path (what back.pose_jump_ratio does)");
   app.add_option("--min-back-observations", min_back_obs,
                  "first drop back-submap points seen by fewer keyframes (what back.min_point_observations does)");
   CLI11_PARSE(app, argc, argv);
@@ -178,6 +182,20 @@ int Main(int argc, char** argv) {
     std::cerr << "rumi-merge-replay: cannot load " << map_path << ": " << why << "\n";
     return 1;
   }
+  // The audit reloads the raw map: it gets the same removal, silently.
+  const auto drop_jumps = [&](GlobalMap* m, bool print) {
+    for (size_t i = 0; jump_ratio > 0 && i < m->size(); ++i) {
+      Submap& s = m->submap(int(i));
+      if (s.source != SubmapSource::kBack) continue;
+      const std::vector<size_t> jumps = PoseJumps(s, jump_ratio);
+      for (size_t k : jumps)
+        if (print)
+          std::printf("%s: keyframe %s registered off the camera path, dropped\n", ToString(m->Key(int(i))).c_str(),
+                      FormatSeconds(s.keyframes[k].timestamp).c_str());
+      DropKeyframesAt(&s, jumps);
+    }
+  };
+  drop_jumps(&map, true);
   if (!bench_dir.empty()) return SessionBench(map, config, bench_dir, rebuild_every, resends, bake);
   if (complete_px > 0) {
     for (size_t i = 0; i < map.size(); ++i)
@@ -218,6 +236,7 @@ int Main(int argc, char** argv) {
       std::cerr << "rumi-merge-replay: cannot load " << map_path << ": " << why << "\n";
       return 1;
     }
+    drop_jumps(&raw, false);
     Trajectory gt;
     try {
       gt = ReadTumTrajectory(gt_path);
