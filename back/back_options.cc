@@ -28,10 +28,13 @@ const OptionSpec<BackOptions>& BackOptions::Spec() {
     s->Number("mapper_min_model_size", &O::mapper_min_model_size, AtLeast(2), AtMost(100000),
               "COLMAP Mapper.min_model_size: smaller models are discarded while mapping");
     s->Number("blank_max_stddev", &O::blank_max_stddev, AtLeast(0.0), AtMost(255.0),
-              "frames whose 4x4 block means have at most this grey-level standard deviation are blank; a "
+              "frames whose 8x8 block means have at most this grey-level standard deviation (and blank_max_structure) are blank; a "
               "model is cut at a blank stretch (0: never)");
     s->Number("blank_min_frames", &O::blank_min_frames, AtLeast(1), AtMost(100000),
               "consecutive blank frames that make a stretch");
+    s->Number("blank_max_structure", &O::blank_max_structure, AtLeast(-1.0), AtMost(1.0),
+              "a blank frame's block means are also uncorrelated: their correlation with the next block is at "
+              "most this (noise ~0; a near-black scene or a plain wall keeps its structure)");
     s->Number("pose_jump_ratio", &O::pose_jump_ratio, AtLeast(0.0), AtMost(1e6),
               "a keyframe farther from both time neighbours than this many times the median speed (or step) "
               "is left out of the back submap (0: keep all)");

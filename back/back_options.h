@@ -35,10 +35,13 @@ struct BackOptions {
   // was never merged.
   int mapper_min_model_size = 10;
   // A model is cut at a stretch of at least blank_min_frames window frames
-  // that show only noise: the grey-level standard deviation of their 4 x 4
-  // block means is at most blank_max_stddev (a covered lens:
-  // back/blank_cut.h). The sides become back submaps of their own. 0 = never.
+  // that show only noise: their 8 x 8 block means are flat (grey-level
+  // standard deviation at most blank_max_stddev) and uncorrelated (with the
+  // next block at most blank_max_structure): a covered lens, not a dark
+  // room or a plain wall (back/blank_cut.h). The sides become back submaps
+  // of their own. blank_max_stddev 0 = never.
   double blank_max_stddev = 1.0;
+  double blank_max_structure = 0.3;
   int blank_min_frames = 3;
   // A keyframe whose centre neither time neighbour can reach (more than
   // pose_jump_ratio x the median speed x the time apart, or x the median

@@ -211,7 +211,7 @@ BackResult BackSubmapBuilder::Build(const ImageWindow& window, const std::atomic
   std::vector<bool> blank(window.frames.size(), false);
   if (options_.blank_max_stddev > 0)
     for (size_t i = 0; i < window.frames.size(); ++i)
-      blank[i] = IsBlankImage(window.frames[i].image, options_.blank_max_stddev);
+      blank[i] = IsBlankImage(window.frames[i].image, options_.blank_max_stddev, options_.blank_max_structure);
   const int num_blank = int(std::count(blank.begin(), blank.end(), true));
   if (res.num_frames - num_blank < options_.min_registered_images)
     return finish(BackStatus::kNoModel, std::to_string(num_blank) + " of the window's " +

@@ -7,18 +7,37 @@
 
 namespace rumi {
 
-bool IsBlankImage(const cv::Mat& image, double max_stddev) {
-  if (image.empty()) return true;
+BlankMeasure MeasureBlank(const cv::Mat& image) {
+  BlankMeasure m;
+  if (image.empty()) return m;
   cv::Mat gray = image;
   if (image.channels() == 3) cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
-  // Averaged over 4 x 4 pixel blocks, sensor noise shrinks 4x, content
-  // does not: a covered generated camera 0.16, its darkest `dark` frames
-  // 1.95-2.7 (0.6 and 2.3-3.7 per pixel).
-  cv::Mat blocks = gray;
-  if (gray.cols >= 4 && gray.rows >= 4) cv::resize(gray, blocks, cv::Size(gray.cols / 4, gray.rows / 4), 0, 0, cv::INTER_AREA);
+  gray.convertTo(gray, CV_32F);
+  // Averaged over 8 x 8 pixel blocks, sensor noise shrinks 8x, content
+  // does not; and a JPEG frame's blocks are 8 x 8, so neighbours are
+  // coded apart (its 4 x 4 means correlate within a block, even on noise).
+  constexpr int kBlock = 8;
+  cv::Mat b = gray;
+  if (gray.cols >= kBlock && gray.rows >= kBlock)
+    cv::resize(gray, b, cv::Size(gray.cols / kBlock, gray.rows / kBlock), 0, 0, cv::INTER_AREA);
   cv::Scalar mean, stddev;
-  cv::meanStdDev(blocks, mean, stddev);
-  return stddev[0] <= max_stddev;
+  cv::meanStdDev(b, mean, stddev);
+  m.stddev = stddev[0];
+  const double var = m.stddev * m.stddev;
+  if (var <= 1e-12 || b.cols < 2 || b.rows < 2) return m;
+  // Lag-1 autocorrelation from neighbour differences: var(a - b) = 2 var (1 - rho).
+  cv::Mat dx = b.colRange(1, b.cols) - b.colRange(0, b.cols - 1);
+  cv::Mat dy = b.rowRange(1, b.rows) - b.rowRange(0, b.rows - 1);
+  const double vdx = cv::norm(dx, cv::NORM_L2SQR) / double(dx.total());
+  const double vdy = cv::norm(dy, cv::NORM_L2SQR) / double(dy.total());
+  m.structure = 1.0 - (vdx + vdy) / (4.0 * var);
+  return m;
+}
+
+bool IsBlankImage(const cv::Mat& image, double max_stddev, double max_structure) {
+  if (image.empty()) return true;
+  const BlankMeasure m = MeasureBlank(image);
+  return m.stddev <= max_stddev && m.structure <= max_structure;
 }
 
 std::vector<std::pair<Timestamp, Timestamp>> BlankStretches(const std::vector<Timestamp>& t,

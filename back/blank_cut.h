@@ -19,10 +19,27 @@
 
 namespace rumi {
 
-// An image that shows nothing but noise: the grey-level standard deviation
-// of its 4 x 4 pixel block means is at most max_stddev. A covered generated
-// camera: 0.16; the darkest frames of generated `dark` seeds: 1.95 and up.
-bool IsBlankImage(const cv::Mat& image, double max_stddev);
+// What a frame shows once sensor noise is averaged down: the grey levels of
+// its 8 x 8 pixel block means, in floating point (8-bit block means round a
+// near-black scene's 1-2 levels of content, and a plain wall's shading, away
+// to nothing).
+struct BlankMeasure {
+  double stddev = 0;     // standard deviation of the block means
+  double structure = 0;  // their correlation with the next block (across and down):
+                         // ~0 for noise, towards 1 for anything imaged
+};
+BlankMeasure MeasureBlank(const cv::Mat& image);
+
+// An image that shows nothing but noise: its block means are flat (stddev
+// at most max_stddev) and uncorrelated (structure at most max_structure).
+// A covered generated camera: stddev 0.08, structure within +-0.03, also
+// with 3-8x the read noise and JPEG at quality 20-95; the demo's near-black
+// `dark` frames (2 % exposure): stddev 0.6, structure 0.66-0.81 (0.4 with
+// 3x the noise and JPEG at 50): the camera still sees them, and COLMAP
+// registers them. What the test cannot tell from noise: a flat frame whose
+// only content is finer than the blocks (a fine random texture at 1 %
+// exposure). docs/results/2026-11-29-blank-structure.md.
+bool IsBlankImage(const cv::Mat& image, double max_stddev, double max_structure);
 
 // Runs of at least min_frames consecutive blank frames (frames in time
 // order), as (first, last) timestamps.
