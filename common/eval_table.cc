@@ -67,9 +67,12 @@ std::vector<std::string> Cells(const TableRow& row, const Getter& get, const Eva
     if (rmse) rmses.push_back(*rmse); else rmse_missing = true;
   }
   const Stat rate = Summarize(rates);
+  // Below min_rate_for_rmse the error covers too little of the sequence to
+  // compare with other rows: shown in parentheses, not hidden.
   std::string rmse_cell = "-";
-  if (rate.mean >= o.min_rate_for_rmse && !rmse_missing && !rmses.empty()) {
+  if (!rmse_missing && !rmses.empty()) {
     rmse_cell = Fmt(Summarize(rmses), 3);
+    if (rate.mean < o.min_rate_for_rmse) rmse_cell = "(" + rmse_cell + ")";
   }
   return {Fmt(rate, 1, 100.0), rmse_cell, Fmt(Summarize(frames), 0)};
 }
@@ -179,13 +182,21 @@ std::string FormatEvalTableMarkdown(const std::vector<TableRow>& rows, const Eva
   out += " Merges acc / rej / harmful | Loss to merge s p50 / p95 / max |";
   sep += "---:|---:|";
   out += "\n" + sep + "\n";
+  bool partial = false;  // an RMSE in parentheses
   for (const auto& row : rows) {
     out += "| " + row.sequence + " |";
     for (const auto& m : Methods()) {
-      for (const auto& c : Cells(row, m.second, o)) out += " " + c + " |";
+      for (const auto& c : Cells(row, m.second, o)) {
+        out += " " + c + " |";
+        partial |= c.front() == '(';
+      }
     }
     out += " " + MergeCell(row) + " | " + LossToMergeCell(row) + " |\n";
   }
+  if (partial)
+    out += "\nRMSE in parentheses: over less than " + std::to_string(int(std::lround(100 * o.min_rate_for_rmse))) +
+           " %" +
+           " of the sequence's time (the rate beside it), not comparable with full rows.\n";
   for (const auto& row : rows) {
     for (size_t k = 0; k < row.runs.size(); ++k)
       for (const std::string& w : row.runs[k].warnings)

@@ -39,15 +39,19 @@ TEST(EvalTable, ErrorsNameTheKey) {
   EXPECT_THROW(ParseRunMetrics("{\"front_tracking_rate_time\":\"a\"}", "x"), std::runtime_error);
 }
 
-TEST(EvalTable, RmseHiddenBelowNinetyPercentAndMeanStd) {
+TEST(EvalTable, RmseInParenthesesBelowNinetyPercentAndMeanStd) {
   TableRow row{"drop", {ParseRunMetrics(Metrics(0.30, "0.5", 0.96, "0.010", 300, 100), "a"),
                         ParseRunMetrics(Metrics(0.32, "0.5", 0.98, "0.014", 310, 110), "b")}};
   const std::string md = FormatEvalTableMarkdown({row});
-  // Merged: 97.0 ± 1.4 rate, RMSE 0.012 ± 0.003; front rate 31 % -> RMSE "-".
+  // Merged: 97.0 ± 1.4 rate, RMSE 0.012 ± 0.003; front rate 31 % -> its RMSE
+  // in parentheses, and a note says why.
   EXPECT_NE(md.find("| drop | 97.0 ± 1.4 | 0.012 ± 0.003 | 105 ± 7 | 97.0 ± 1.4 | 0.012 ± 0.003 | 305 ± 7 |"
-                    " 31.0 ± 1.4 | - | 40 ± 0 |"),
+                    " 31.0 ± 1.4 | (0.500 ± 0.000) | 40 ± 0 |"),
             std::string::npos)
       << md;
+  EXPECT_NE(md.find("RMSE in parentheses: over less than 90 % of the sequence's time"), std::string::npos) << md;
+  TableRow full{"full", {ParseRunMetrics(Metrics(0.95, "0.5", 0.96, "0.010", 300, 100), "c")}};
+  EXPECT_EQ(FormatEvalTableMarkdown({full}).find("parentheses"), std::string::npos);
   const std::string csv = FormatEvalTableCsv({row});
   EXPECT_NE(csv.find("drop,2,"), std::string::npos) << csv;
 }
