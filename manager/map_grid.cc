@@ -112,9 +112,9 @@ const OccupancyGrid& LiveGrid::Update(const std::vector<GridKeyframe>& kfs, Grid
 std::string MapGridResult::Summary() const {
   if (!ok) return why;
   return fmt::format(
-      "grid {} x {} cells: {:.2f} m^2 free, {:.2f} m^2 occupied; {} keyframes, {} obstacle rays, {} floor rays, "
-      "{} points overhead; scale from {}, camera {:.3f} m above the floor; {:.3f} s{}",
-      width, height, free_m2, occupied_m2, stats.keyframes, stats.rays_hit, stats.rays_floor, stats.points_overhead,
+      "grid {} x {} cells of {:.3g} m: {:.2f} m^2 free, {:.2f} m^2 occupied; {} keyframes, {} obstacle rays, "
+      "{} floor rays, {} points overhead; scale from {}, camera {:.3f} m above the floor; {:.3f} s{}",
+      width, height, cells.resolution, free_m2, occupied_m2, stats.keyframes, stats.rays_hit, stats.rays_floor, stats.points_overhead,
       frame.scale_source, frame.camera_height_m, stats.seconds,
       incremental ? fmt::format(" (added {} keyframes)", added)
                   : rebuild_reason.empty() ? "" : " (rebuilt: " + rebuild_reason + ")");

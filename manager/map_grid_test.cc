@@ -65,7 +65,8 @@ TEST(LiveGridTest, NewKeyframesAreAddedAndGiveTheGridOfAFullBuild) {
 
 TEST(LiveGridTest, AMovedOrRemovedKeyframeOrAMovedFrameRebuilds) {
   std::vector<GridKeyframe> all = Walk(40);
-  const GridOptions o;  // 5 cm cells: the tolerance is 1.25 cm
+  GridOptions o;
+  o.cells.resolution_m = 0.05;  // the tolerance is 1.25 cm
   LiveGrid live;
   GridFrame f = Identity();
   live.Update(all, &f, o, nullptr);

@@ -18,7 +18,10 @@
 namespace rumi {
 
 struct OccupancyGridOptions {
-  double resolution_m = 0.05;  // cell side
+  // Cell side. 0.1 m: monocular map points sit 5-10 cm off their surface at
+  // 3-4 m, and 0.05 m cells scored lower on every generated sequence
+  // (docs/results/2026-11-25-grid-slices.md, 2026-11-29-grid-cell.md).
+  double resolution_m = 0.1;
   double clamp_min = 0.12;     // probability bounds of a cell (log-odds clamped to them)
   double clamp_max = 0.97;
   double max_range_m = 8.0;    // rays to points farther than this are ignored
