@@ -450,13 +450,24 @@ int ManagerService::BakeSettled(double min_age_s) {
     if (old_enough && !growing && map_.Find(key) >= 0) settled.push_back(key);
   }
   if (settled.empty()) return 0;
+  // The raw form stays on disk (map_file.h LoadRawSubmaps): the merge audit
+  // needs a submap as received however long the back took.
+  std::error_code ec;
+  fs::create_directories(RawBakedDir(RawPath()), ec);
+  for (const SubmapKey& key : settled) {
+    std::string why;
+    if (!SaveSubmaps({&received_.at(key)}, RawBakedPath(RawPath(), key), &why)) {
+      spdlog::warn("manager: not baking settled submaps now: {}", why);
+      return 0;
+    }
+  }
   for (const SubmapKey& key : settled) {
     received_.erase(key);
     received_fp_.erase(key);
     received_at_.erase(key);
   }
   // The map holds their merged, culled versions and the map file has them;
-  // the raw file still holds them until its next save.
+  // the raw file still holds them until its next save, the baked folder after.
   raw_dirty_ = true;
   stats_.baked += int64_t(settled.size());
   spdlog::info("manager: baked {} settled submap(s) into the base ({} in it, {} received kept raw)", settled.size(),

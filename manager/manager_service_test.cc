@@ -369,6 +369,15 @@ TEST(ManagerService, SettledSubmapsAreBakedIntoTheBase) {
     EXPECT_TRUE(svc.map_files_pending());  // the raw file still holds it
     ASSERT_TRUE(svc.WriteOutputs(&why)) << why;
     EXPECT_EQ(raw_submaps(), 1u);
+    {  // the baked back submap is still there as received (the merge audit's need)
+      GlobalMap all;
+      ASSERT_TRUE(LoadRawSubmaps(dir / "map.rumi.raw", &all, &why)) << why;
+      ASSERT_EQ(all.size(), 2u);
+      const int back = all.Find({SubmapSource::kBack, s.back.submap.id});
+      ASSERT_GE(back, 0);
+      EXPECT_EQ(all.submap(back).keyframes.size(), s.back.submap.keyframes.size());
+      EXPECT_EQ(all.submap(back).points.size(), s.back.submap.points.size());
+    }
 
     svc.AddSubmap(s.front_b.submap);
     ASSERT_TRUE(svc.Rebuild(&why)) << why;
@@ -379,6 +388,9 @@ TEST(ManagerService, SettledSubmapsAreBakedIntoTheBase) {
     EXPECT_EQ(svc.BakeSettled(1e-3), 1);  // A, no longer the newest
     ASSERT_TRUE(svc.WriteOutputs(&why)) << why;
     EXPECT_EQ(raw_submaps(), 1u);  // B
+    GlobalMap all;
+    ASSERT_TRUE(LoadRawSubmaps(dir / "map.rumi.raw", &all, &why)) << why;
+    EXPECT_EQ(all.size(), 3u);  // B raw, A and the back baked
     ASSERT_TRUE(svc.Rebuild(&why)) << why;  // from the base alone: the same map
     EXPECT_EQ(svc.map().size(), 3u);
     EXPECT_EQ(svc.stats().components, 1);

@@ -3,6 +3,8 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <algorithm>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 
@@ -197,6 +199,35 @@ bool LoadGlobalMap(const std::string& path, GlobalMap* map, std::string* why,
     if (why) *why = e.what();
     return false;
   }
+}
+
+std::string RawBakedDir(const std::string& raw_path) { return raw_path + ".baked"; }
+
+std::string RawBakedPath(const std::string& raw_path, const SubmapKey& key) {
+  return RawBakedDir(raw_path) + "/" +
+         (key.source == SubmapSource::kFront ? "front_" : "back_") + std::to_string(key.id) + ".rumi";
+}
+
+bool LoadRawSubmaps(const std::string& raw_path, GlobalMap* map, std::string* why,
+                    const SubmapSerializer& serializer) {
+  namespace fs = std::filesystem;
+  GlobalMap out;
+  std::error_code ec;
+  if (fs::exists(raw_path, ec) && !LoadGlobalMap(raw_path, &out, why, serializer)) return false;
+  std::vector<std::string> baked;
+  const std::string dir = RawBakedDir(raw_path);
+  if (fs::is_directory(dir, ec))
+    for (const auto& e : fs::directory_iterator(dir, ec))
+      if (e.path().extension() == ".rumi") baked.push_back(e.path().string());
+  std::sort(baked.begin(), baked.end());
+  for (const std::string& path : baked) {
+    GlobalMap one;
+    if (!LoadGlobalMap(path, &one, why, serializer)) return false;
+    for (size_t i = 0; i < one.size(); ++i)
+      if (out.Find(one.Key(int(i))) < 0 && out.AddSubmap(one.submap(int(i)), why) < 0) return false;
+  }
+  *map = std::move(out);
+  return true;
 }
 
 }  // namespace rumi

@@ -47,4 +47,15 @@ bool SaveSubmaps(const std::vector<const Submap*>& submaps, const std::string& p
 bool LoadGlobalMap(const std::string& path, GlobalMap* map, std::string* why,
                    const SubmapSerializer& serializer = DefaultSubmapSerializer());
 
+// The raw submaps of a manager: those still kept raw (the raw file, e.g.
+// map.rumi.raw) and those baked into the base since, each saved as it was
+// received in RawBakedDir(raw file) (map.rumi.raw.baked/front_0.rumi, ...)
+// when it was baked. Whoever needs a submap as received (the merge audit)
+// finds it whatever was baked. A missing raw file or folder holds nothing;
+// a file that does not load fails the whole call (*why names it).
+std::string RawBakedDir(const std::string& raw_path);
+std::string RawBakedPath(const std::string& raw_path, const SubmapKey& key);
+bool LoadRawSubmaps(const std::string& raw_path, GlobalMap* map, std::string* why,
+                    const SubmapSerializer& serializer = DefaultSubmapSerializer());
+
 }  // namespace rumi

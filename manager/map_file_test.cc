@@ -94,6 +94,36 @@ TEST_F(MapFileTest, SubmapsSavedAsTheyAre) {
   EXPECT_EQ(ReadAll(), direct);
 }
 
+// The raw submaps of a manager: the raw file and what was baked since, each
+// baked submap in its own file; a broken file fails the whole load.
+TEST_F(MapFileTest, RawSubmapsIncludeTheBakedOnes) {
+  const std::string raw = (dir_ / "map.rumi.raw").string();
+  std::string why;
+  GlobalMap loaded;
+  ASSERT_TRUE(LoadRawSubmaps(raw, &loaded, &why)) << why;  // neither there: nothing
+  EXPECT_EQ(loaded.size(), 0u);
+  ASSERT_TRUE(SaveSubmaps({&s_.front_b.submap}, raw, &why)) << why;
+  fs::create_directories(RawBakedDir(raw));
+  const SubmapKey back{s_.back.submap.source, s_.back.submap.id};
+  const SubmapKey a{s_.front_a.submap.source, s_.front_a.submap.id};
+  ASSERT_TRUE(SaveSubmaps({&s_.back.submap}, RawBakedPath(raw, back), &why)) << why;
+  ASSERT_TRUE(SaveSubmaps({&s_.front_a.submap}, RawBakedPath(raw, a), &why)) << why;
+  EXPECT_EQ(RawBakedPath(raw, a), raw + ".baked/front_" + std::to_string(a.id) + ".rumi");
+  ASSERT_TRUE(LoadRawSubmaps(raw, &loaded, &why)) << why;
+  ASSERT_EQ(loaded.size(), 3u);
+  for (const Submap* s : {&s_.front_a.submap, &s_.front_b.submap, &s_.back.submap}) {
+    const int i = loaded.Find({s->source, s->id});
+    ASSERT_GE(i, 0);
+    EXPECT_EQ(loaded.submap(i).keyframes.size(), s->keyframes.size());
+    EXPECT_EQ(loaded.submap(i).points.back().position, s->points.back().position);
+  }
+  // A baked file that does not load: an error naming it, the map untouched.
+  { std::ofstream(RawBakedPath(raw, back), std::ios::binary | std::ios::trunc) << "garbage"; }
+  EXPECT_FALSE(LoadRawSubmaps(raw, &loaded, &why));
+  EXPECT_NE(why.find("back_"), std::string::npos) << why;
+  EXPECT_EQ(loaded.size(), 3u);
+}
+
 TEST_F(MapFileTest, TruncatedFileIsRefusedAndMapKept) {
   std::string why;
   ASSERT_TRUE(SaveGlobalMap(map_, path_, &why)) << why;

@@ -88,6 +88,7 @@ int SessionBench(const GlobalMap& raw, const RumiConfig& config, const std::stri
   std::error_code ec;
   std::filesystem::remove(so.MapPath(), ec);
   std::filesystem::remove(so.MapPath() + ".raw", ec);
+  std::filesystem::remove_all(RawBakedDir(so.MapPath() + ".raw"), ec);
   ManagerService service(so);
   std::string why;
   if (!service.Start(&why)) {
@@ -178,7 +179,7 @@ int Main(int argc, char** argv) {
 
   GlobalMap map;
   std::string why;
-  if (!LoadGlobalMap(map_path, &map, &why)) {
+  if (!LoadRawSubmaps(map_path, &map, &why)) {
     std::cerr << "rumi-merge-replay: cannot load " << map_path << ": " << why << "\n";
     return 1;
   }
@@ -232,7 +233,7 @@ int Main(int argc, char** argv) {
   }
   if (!gt_path.empty()) {
     GlobalMap raw;
-    if (!LoadGlobalMap(map_path, &raw, &why)) {
+    if (!LoadRawSubmaps(map_path, &raw, &why)) {
       std::cerr << "rumi-merge-replay: cannot load " << map_path << ": " << why << "\n";
       return 1;
     }

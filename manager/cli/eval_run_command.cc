@@ -214,7 +214,7 @@ void AuditRunMerges(const fs::path& manager_dir, const Trajectory& ground_truth,
   }
   GlobalMap map;
   std::string why;
-  if (!LoadGlobalMap(raw.string(), &map, &why)) {
+  if (!LoadRawSubmaps(raw.string(), &map, &why)) {  // with what was baked since
     spdlog::warn("no merge audit: {}", why);
     return;
   }

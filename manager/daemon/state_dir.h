@@ -5,7 +5,7 @@
 //   rumid.lock           held (flock) while a rumid runs on the folder
 //   status.json          what `rumi status` shows, rewritten every second
 //   generation           starts of front/back so far: ids stay unique across restarts
-//   map.rumi, map.rumi.raw, map.rumi.received/, merged*.txt, manager_stats.json
+//   map.rumi, map.rumi.raw, map.rumi.raw.baked/, map.rumi.received/, merged*.txt, manager_stats.json
 //   front/               front_frames.txt, front_samples.txt, front.txt, front_stats.json
 //   back/                back_stats.json, spool/ (windows until built)
 //   logs/                the children's logs (daemon.child_output: files)
