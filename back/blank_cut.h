@@ -33,12 +33,14 @@ BlankMeasure MeasureBlank(const cv::Mat& image);
 // An image that shows nothing but noise: its block means are flat (stddev
 // at most max_stddev) and uncorrelated (structure at most max_structure).
 // A covered generated camera: stddev 0.08, structure within +-0.03, also
-// with 3-8x the read noise and JPEG at quality 20-95; the demo's near-black
-// `dark` frames (2 % exposure): stddev 0.6, structure 0.66-0.81 (0.4 with
-// 3x the noise and JPEG at 50): the camera still sees them, and COLMAP
-// registers them. What the test cannot tell from noise: a flat frame whose
-// only content is finer than the blocks (a fine random texture at 1 %
-// exposure). docs/results/2026-11-29-blank-structure.md.
+// with 3-8x the read noise and through JPEG at quality 20-95; the demo's
+// near-black `dark` frames (2 % exposure): stddev 0.6-0.8, structure
+// 0.80-0.89 (0.66-0.79 through JPEG at 50-95, 0.41-0.60 with 3x the noise):
+// the camera still sees them, and COLMAP registers them. What this cannot
+// tell from noise: a flat frame whose only content is finer than the blocks
+// (a fine random texture at 1 % exposure, a checkerboard of 4-pixel squares
+// that fills every block alike), or one that JPEG at 20 or 8x the noise left
+// at 0.14-0.21. docs/results/2026-11-29-blank-structure.md.
 bool IsBlankImage(const cv::Mat& image, double max_stddev, double max_structure);
 
 // Runs of at least min_frames consecutive blank frames (frames in time
