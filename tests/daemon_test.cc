@@ -293,7 +293,7 @@ TEST_F(Daemon, ServesTheLiveMapOverDds) {
   EXPECT_EQ(g.image, "map.pgm");
   EXPECT_DOUBLE_EQ(g.occupied_thresh, 0.65);
   EXPECT_DOUBLE_EQ(g.free_thresh, 0.196);
-  EXPECT_DOUBLE_EQ(g.resolution, 0.05);
+  EXPECT_DOUBLE_EQ(g.resolution, OccupancyGridOptions{}.resolution_m);
   int free_cells = 0;
   for (uint8_t v : g.pixels) free_cells += v == kPgmFree;
   EXPECT_GT(free_cells, 100);

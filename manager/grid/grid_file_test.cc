@@ -24,8 +24,13 @@ class GridFile : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
   std::string P(const std::string& name) const { return (dir_ / name).string(); }
+  static OccupancyGridOptions Cells5cm() {
+    OccupancyGridOptions o;
+    o.resolution_m = 0.05;
+    return o;
+  }
   fs::path dir_;
-  OccupancyGrid grid_;
+  OccupancyGrid grid_{Cells5cm()};
 };
 
 TEST_F(GridFile, MapServerReadsWhatWasWritten) {

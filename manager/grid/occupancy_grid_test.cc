@@ -141,7 +141,7 @@ TEST(OccupancyGrid, OptionsChecked) {
   o.resolution_m = 0;
   EXPECT_FALSE(o.Check(&why));
   EXPECT_NE(why.find("resolution_m"), std::string::npos) << why;
-  EXPECT_NEAR(OccupancyGridOptions{}.Band(), 0.05 * std::sqrt(2.0), 1e-12);
+  EXPECT_NEAR(OccupancyGridOptions{}.Band(), 0.1 * std::sqrt(2.0), 1e-12);  // a cell's diagonal
 }
 
 }  // namespace
