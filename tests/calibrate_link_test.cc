@@ -13,7 +13,7 @@
 
 #include "common/board_renderer.h"
 #include "common/process/subprocess.h"
-#include "configs/rumi_config.h"
+#include "apps/config/rumi_config.h"
 #include "ipc/link/robot_sim.h"
 #include "tests/rumi_cli_util.h"
 
@@ -94,7 +94,10 @@ class CalibrateLink : public ::testing::Test {
 TEST_F(CalibrateLink, PicksViewsFromTheRobotsStreamAndCalibrates) {
   const CalibrationOptions o;
   const PinholeCameraOptions truth = test::Qvga();
-  const std::vector<CalibrationImage> boards = test::BoardRenderer(truth, o).Views(16, 3, 0.4);
+  // Seed 2: the views the picker keeps cover 56 % of the image (seed 3's
+  // covered 49.96 % on one machine and 50 % on another: at the bound, so the
+  // calibration was refused there).
+  const std::vector<CalibrationImage> boards = test::BoardRenderer(truth, o).Views(16, 2, 0.4);
   // Each board held for 4 frames; between boards, a frame of the board in
   // motion (another view, once) and a frame without a board.
   const cv::Mat wall(truth.height, truth.width, CV_8UC1, cv::Scalar(110));
