@@ -1,6 +1,7 @@
 #include "common/atomic_file.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -80,6 +81,30 @@ bool ReadFileBytes(const std::string& path, std::vector<uint8_t>* out, std::stri
   out->assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
   if (in.bad()) {
     if (why) *why = Errno("cannot read", path);
+    return false;
+  }
+  return true;
+}
+
+bool CheckRegularFile(const std::string& path, uint64_t max_bytes, std::string* why) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) {
+    if (why) *why = Errno("cannot open", path);
+    return false;
+  }
+  if (!S_ISREG(st.st_mode)) {
+    if (why)
+      *why = "'" + path + "' is not a regular file (" +
+             (S_ISDIR(st.st_mode) ? "a folder" : S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode) ? "a device"
+                                               : S_ISFIFO(st.st_mode)                       ? "a pipe"
+                                                                                            : "not a file") +
+             ")";
+    return false;
+  }
+  if (uint64_t(st.st_size) > max_bytes) {
+    if (why)
+      *why = "'" + path + "' holds " + std::to_string(uint64_t(st.st_size)) + " bytes, more than the " +
+             std::to_string(max_bytes) + " it may";
     return false;
   }
   return true;

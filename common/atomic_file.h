@@ -24,4 +24,9 @@ inline bool WriteFileAtomically(const std::string& path, const std::vector<uint8
 // Whole file into *out; false with *why when it cannot be read.
 bool ReadFileBytes(const std::string& path, std::vector<uint8_t>* out, std::string* why);
 
+// A file a reader may take in whole: it exists, is a regular file (not a
+// device, a pipe or a folder: `/dev/zero` would be read for ever) and holds
+// at most max_bytes. False with *why naming the file and what it is.
+bool CheckRegularFile(const std::string& path, uint64_t max_bytes, std::string* why);
+
 }  // namespace rumi

@@ -1,9 +1,17 @@
 #include "common/config.h"
 
+#include "common/atomic_file.h"
+
 #include <fstream>
 #include <sstream>
 
+#include <yaml-cpp/eventhandler.h>
+#include <yaml-cpp/parser.h>
+
 namespace rumi {
+
+// A config is a few KB; 16 MiB is no config (and /dev/zero no file).
+constexpr uint64_t kMaxConfigBytes = uint64_t(16) << 20;
 
 ConfigSection::ConfigSection()
     : node_(YAML::NodeType::Map), file_("<defaults>"), used_(std::make_shared<std::set<std::string>>()) {}
@@ -77,6 +85,8 @@ void ConfigSection::Finish() const {
 }
 
 ConfigSection LoadConfigFile(const std::string& path) {
+  std::string why;
+  if (!CheckRegularFile(path, kMaxConfigBytes, &why)) throw ConfigError(path + ": cannot read config file: " + why);
   std::ifstream in(path);
   if (!in) throw ConfigError(path + ": cannot open config file");
   std::stringstream ss;
@@ -106,11 +116,39 @@ void CheckKeys(const YAML::Node& node, const std::string& name, const std::strin
     CheckKeys(kv.second, name, key);
   }
 }
+// Refuses aliases (*name) from the parser's events, before a tree exists:
+// a few hundred bytes of nested aliases ("billion laughs") stand for
+// billions of nodes to whoever walks the tree, and a walk hung rumid's start
+// and its SIGHUP reload. A rumi config has no use for them.
+class AliasRefuser : public YAML::EventHandler {
+ public:
+  explicit AliasRefuser(const std::string& name) : name_(name) {}
+  void OnAlias(const YAML::Mark& mark, YAML::anchor_t) override {
+    throw ConfigError(name_ + ": line " + std::to_string(mark.line + 1) +
+                      ": YAML aliases (*name) are not allowed in a rumi config");
+  }
+  void OnDocumentStart(const YAML::Mark&) override {}
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t, const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+
+ private:
+  std::string name_;
+};
 }  // namespace
 
 ConfigSection LoadConfigString(const std::string& yaml, const std::string& name) {
   YAML::Node node;
   try {
+    std::istringstream in(yaml);
+    YAML::Parser parser(in);
+    AliasRefuser refuser(name);
+    while (parser.HandleNextDocument(refuser)) {
+    }
     node = YAML::Load(yaml);
   } catch (const YAML::Exception& e) {
     throw ConfigError(name + ": malformed YAML at line " + std::to_string(e.mark.line + 1) + ": " + e.msg);

@@ -133,7 +133,13 @@ class OrderCheck {
   int first_dropped_line_ = 0;
 };
 
+// A trajectory of hours at hundreds of Hz is tens of MB: 1 GiB is no trajectory.
+constexpr uint64_t kMaxTrajectoryBytes = uint64_t(1) << 30;
+
 std::ifstream OpenForRead(const std::string& path, const char* what) {
+  std::string why;
+  if (!CheckRegularFile(path, kMaxTrajectoryBytes, &why))
+    throw std::runtime_error(std::string("cannot read ") + what + ": " + why);
   std::ifstream in(path);
   if (!in) throw std::runtime_error(std::string("cannot open ") + what + " '" + path + "'");
   return in;
