@@ -97,7 +97,7 @@ TEST(CameraConfig, SectionYamlReadsBack) {
 }
 
 // Every shipped config's camera section is complete (no silent defaults) and
-// valid. (configs/rumi_config_test.cc loads the whole files.)
+// valid. (apps/config/rumi_config_test.cc loads the whole files.)
 TEST(CameraConfig, EveryShippedConfigHasACompleteCamera) {
   int n = 0;
   for (const auto& entry : std::filesystem::directory_iterator(kConfigs)) {

@@ -1,6 +1,6 @@
 #include "manager/manager_run.h"
 
-#include "manager/dds/map_server.h"
+#include "ipc/dds/map_server.h"
 #include "manager/map_snapshot_of.h"
 
 #include <spdlog/spdlog.h>
@@ -14,7 +14,7 @@
 #include "common/process/notify.h"
 #include "common/timestamp.h"
 #include "ipc/channel_watch.h"
-#include "manager/dds/map_server.h"
+#include "ipc/dds/map_server.h"
 #include "manager/map_snapshot_of.h"
 
 namespace rumi {

@@ -7,7 +7,7 @@
 
 #include "common/option_spec.h"
 #include "ipc/channels.h"
-#include "manager/dds/dds_options.h"
+#include "ipc/dds/dds_options.h"
 #include "manager/manager_service.h"
 
 namespace rumi {

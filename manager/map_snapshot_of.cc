@@ -5,7 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "manager/daemon/daemon_status.h"
+#include "ipc/daemon_status.h"
 #include "manager/global_trajectory.h"
 
 namespace rumi {

@@ -1,6 +1,6 @@
 #pragma once
 // Turns the manager's current product into the snapshot the DDS server
-// answers from (manager/dds/map_snapshot.h), and the events since the
+// answers from (ipc/dds/map_snapshot.h), and the events since the
 // previous one (new submaps, merges and rejections of real attempts,
 // culling, saves).
 #include <memory>
@@ -8,7 +8,7 @@
 #include <string>
 #include <utility>
 
-#include "manager/dds/map_snapshot.h"
+#include "ipc/dds/map_snapshot.h"
 #include "manager/manager_service.h"
 
 namespace rumi {

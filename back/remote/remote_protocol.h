@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "manager/dds/dds_entity.h"
-#include "manager/dds/dds_options.h"
+#include "ipc/dds/dds_entity.h"
+#include "ipc/dds/dds_options.h"
 #include "remote_back.h"  // idlc
 
 namespace rumi {

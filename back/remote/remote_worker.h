@@ -8,7 +8,7 @@
 #include <string>
 
 #include "back/back_options.h"
-#include "manager/dds/dds_options.h"
+#include "ipc/dds/dds_options.h"
 
 namespace rumi {
 

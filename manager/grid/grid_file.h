@@ -11,26 +11,10 @@
 #include <string>
 #include <vector>
 
+#include "common/map_server_grid.h"
 #include "manager/grid/occupancy_grid.h"
 
 namespace rumi {
-
-constexpr uint8_t kPgmFree = 254, kPgmOccupied = 0, kPgmUnknown = 205;
-constexpr double kOccupiedThresh = 0.65, kFreeThresh = 0.196;
-
-// A map_server grid as loaded from its YAML + image.
-struct MapServerGrid {
-  std::string image;  // as written in the YAML (relative to the YAML's folder)
-  double resolution = 0;
-  Eigen::Vector3d origin = Eigen::Vector3d::Zero();  // x, y, yaw of the lower-left pixel
-  int negate = 0;
-  double occupied_thresh = kOccupiedThresh, free_thresh = kFreeThresh;
-  std::string mode = "trinary";
-  int width = 0, height = 0;
-  std::vector<uint8_t> pixels;  // row-major, row 0 = top (largest y)
-  // map_server's reading of a cell (col, row from the bottom, as the grid's).
-  CellState State(int col, int row) const;
-};
 
 // The grid's cells as map_server values, thresholds 0.65 / 0.196.
 MapServerGrid ToMapServerGrid(const OccupancyGrid& grid);

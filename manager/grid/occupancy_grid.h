@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "common/map_server_grid.h"  // CellState
 #include "common/option_spec.h"
 #include "manager/grid/inverse_sensor_model.h"
 
@@ -32,8 +33,6 @@ struct OccupancyGridOptions {
   bool Check(std::string* why = nullptr) const { return Spec().Check(*this, why); }
   double Band() const { return ism.band_m > 0 ? ism.band_m : resolution_m * std::sqrt(2.0); }
 };
-
-enum class CellState : uint8_t { kUnknown, kFree, kOccupied };
 
 class OccupancyGrid {
  public:

@@ -1,0 +1,63 @@
+#include "apps/daemon/state_dir.h"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <string>
+
+#include "common/atomic_file.h"
+
+namespace rumi {
+
+std::string ResolveStateDir(const std::string& cli, const std::string& config, const std::string& instance) {
+  if (!cli.empty()) return cli;
+  if (!config.empty()) return config;
+  // systemd's StateDirectory=rumi/%i sets $STATE_DIRECTORY (several: ':').
+  if (const char* s = std::getenv("STATE_DIRECTORY"); s && *s) {
+    const std::string v = s;
+    return v.substr(0, v.find(':'));
+  }
+  return "/var/lib/rumi/" + instance;
+}
+
+bool StateDirLock::Acquire(const StateDirLayout& layout, std::string* why) {
+  fd_ = ::open(layout.Lock().c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd_ < 0) {
+    if (why) *why = "cannot open " + layout.Lock() + ": " + std::strerror(errno);
+    return false;
+  }
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    std::ifstream in(layout.Lock());
+    std::string holder;
+    std::getline(in, holder);
+    if (why) *why = "another rumid (pid " + (holder.empty() ? std::string("?") : holder) + ") runs on " + layout.root;
+    ::close(fd_);
+    fd_ = -1;
+    return false;
+  }
+  const std::string pid = std::to_string(::getpid()) + "\n";
+  if (::ftruncate(fd_, 0) != 0 || ::pwrite(fd_, pid.data(), pid.size(), 0) < 0) {
+    // The lock holds; the pid is only for the message of a second rumid.
+  }
+  return true;
+}
+
+StateDirLock::~StateDirLock() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+long NextGeneration(const StateDirLayout& layout, std::string* why) {
+  long g = 0;
+  std::ifstream in(layout.Generation());
+  if (in >> g) ++g;
+  else g = 0;
+  if (!WriteFileAtomically(layout.Generation(), std::to_string(g) + "\n", why)) return -1;
+  return g;
+}
+
+}  // namespace rumi
