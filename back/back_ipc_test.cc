@@ -266,6 +266,39 @@ TEST_F(BackIpcTest, SigtermCancelsRunningColmapAndSaysSo) {
   EXPECT_FALSE(ReadRingStats(SegmentName(ipc_.instance, kBackSubmapChannel), &rs)) << "channel not closed";
 }
 
+// The source has ended (the producer closed its channel) and the back drains
+// its queue: a stop still cancels COLMAP at once, and under rumid the window
+// stays in the spool without a failed attempt counted (#50.4: the stop went
+// unheard until rumid's SIGKILL, and two such stops dropped the window).
+TEST_F(BackIpcTest, SigtermWhileDrainingAfterTheSourceEndedCancelsToo) {
+  std::ofstream(dir_ / "hang") << "1\n";
+  const std::string config = Config(/*max_queue_windows=*/1);
+  auto tx = std::make_unique<WindowSender>(ipc_);
+  Start({"--config", config, "--daemon"});
+  ASSERT_EQ(tx->Send(MakeWindow(3, 1000000000LL)), PushStatus::kOk);
+  const auto t0 = Clock::now();
+  while (!fs::exists(dir_ / "sleep.pid") && Since(t0) < 15)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_TRUE(fs::exists(dir_ / "sleep.pid")) << Log();
+  tx.reset();  // the producer is done: the channel is closed and drained
+  while (Log().find("window producer closed its channel") == std::string::npos && Since(t0) < 15)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_NE(Log().find("window producer closed its channel"), std::string::npos) << Log();
+  ASSERT_EQ(::kill(pid_, SIGUSR1), 0);  // rumid: "the source ended"
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the receiver has seen the end
+  const auto t1 = Clock::now();
+  ASSERT_EQ(::kill(pid_, SIGTERM), 0);
+  EXPECT_EQ(Wait(10), kExitStopped) << Log();
+  EXPECT_LT(Since(t1), 3.0) << "docs/eval.md: stop within 3 s\n" << Log();
+  const nlohmann::json j = Stats();
+  EXPECT_EQ(j["windows_cancelled"], 1) << j.dump(1);
+  EXPECT_EQ(j["stopped_by_signal"], true);
+  int attempts = -1;
+  std::ifstream(dir_ / "work" / "spool" / "3.attempt") >> attempts;
+  EXPECT_EQ(attempts, 0) << "a stop is not a failed attempt";
+  EXPECT_TRUE(fs::exists(dir_ / "work" / "spool" / "3.rwin"));
+}
+
 // rumid's back (--daemon): a window is on disk before its ring slot is let
 // go; a back killed while COLMAP runs leaves no COLMAP behind, its restart
 // retries that window once and removes the dead one's workspace; a second

@@ -308,8 +308,15 @@ void ReceiveLoop(const BackRunOptions& o, WindowReceiver* rx, SubmapSender* tx, 
     std::lock_guard<std::mutex> l(sh->mutex);
     sh->receiver_done = true;
   }
-  if (stop && stop->load()) sh->abort.store(true);
   queue->Close();
+  // The source may have ended while the worker still drains the queue: a
+  // stop then must still cancel COLMAP (it used to go unheard until rumid's
+  // SIGKILL, and the window counted a failed attempt). The worker sets abort
+  // when it is done.
+  while (!sh->abort.load()) {
+    if (stop && stop->load()) sh->abort.store(true);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
 }
 
 // The status for a supervisor (notify), every half second until *done.
