@@ -231,6 +231,25 @@ TEST_F(Daemon, ACrashLoopGivesUpWithAClearLine) {
   EXPECT_EQ(Status(State("crash"))["state"], "failed");
 }
 
+// A child that refuses its input (exit 2): given up on at once, and rumid
+// exits 2 too, which the unit does not restart (RestartPreventExitStatus=2;
+// it used to exit 1, and systemd retried a config that cannot load 5 times).
+TEST_F(Daemon, AChildThatRefusesItsInputEndsRumidWithExit2) {
+  const fs::path bin = dir_ / "bin_refuse";
+  fs::create_directories(bin);
+  for (const char* b : {"rumi-back", "rumi-manager"}) fs::create_symlink(Bin(b), bin / b);
+  std::ofstream(bin / "rumi-front") << "#!/bin/sh\necho 'rumi-front: source: no such camera' >&2\nexit 2\n";
+  fs::permissions(bin / "rumi-front", fs::perms::owner_all);
+  const std::string cfg = Config("refuse");
+  const std::string log = (dir_ / "rumid_refuse.log").string();
+  pid_ = Start({"--config", cfg, "--bin-dir", bin.string()}, {}, log);
+  const int rc = WaitExit(pid_, 60);
+  pid_ = -1;
+  EXPECT_EQ(rc, 2) << Slurp(log);
+  EXPECT_NE(Slurp(log).find("rumid exits 2"), std::string::npos) << Slurp(log);
+  EXPECT_EQ(Status(State("refuse"))["state"], "failed");
+}
+
 // The live map over DDS (loopback): `rumi query` answers from rumid's
 // manager while the sequence plays: the live pose at frame rate, the
 // status, the trajectory, the points and the grid (metric from the

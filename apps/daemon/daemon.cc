@@ -188,6 +188,7 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
 
   std::string state = "starting";
   std::string failure;
+  int failure_code = kExitError;  // kExitBadInput when a child refused its input: restarting cannot help
   auto status_json = [&]() {
     nlohmann::json st;
     st["instance"] = o.instance;
@@ -267,8 +268,12 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
     // A child given up on (a crash loop, a config it refuses): the daemon fails.
     for (int i = 0; i < static_cast<int>(sup.size()) && failure.empty(); ++i) {
       const ChildInfo& in = sup.info(i);
-      if (in.state == ChildState::kGaveUp)
-        failure = in.name + " " + DescribeWaitStatus(in.last_status) + " and was given up on";
+      if (in.state != ChildState::kGaveUp) continue;
+      failure = in.name + " " + DescribeWaitStatus(in.last_status) + " and was given up on";
+      if (WIFEXITED(in.last_status) && WEXITSTATUS(in.last_status) == kExitBadInput) {
+        failure += " (its config or input cannot load: rumid exits 2, which the unit does not restart)";
+        failure_code = kExitBadInput;
+      }
     }
     if (!failure.empty()) break;
     if (forward_hangup && forward_hangup->exchange(false)) {
@@ -346,7 +351,7 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
   if (failure.empty()) state = "stopped";
   publish();
   spdlog::info("rumid: {} in {:.1f} s", failure.empty() ? "stopped" : "failed", Since(t_stop));
-  return failure.empty() ? kExitDone : kExitError;
+  return failure.empty() ? kExitDone : failure_code;
 }
 
 }  // namespace rumi
