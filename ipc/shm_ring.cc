@@ -207,7 +207,10 @@ RingProducer::RingProducer(const std::string& name, const RingLayout& layout)
                    head, p.pid);
     } else {
       try {
-        bip::shared_memory_object shm(bip::create_only, name.c_str(), bip::read_write);
+        // Frames and maps are the robot's: only the user that runs rumi
+        // reads them (Boost's default is 0644, whatever the umask).
+        bip::permissions owner_only(0600);
+        bip::shared_memory_object shm(bip::create_only, name.c_str(), bip::read_write, owner_only);
         shm.truncate(static_cast<bip::offset_t>(total));
         bip::mapped_region region(shm, bip::read_write);
         seg_->shm.swap(shm);

@@ -78,6 +78,17 @@ TEST(ShmRing, FifoAndDropNewestWhenFull) {
   EXPECT_TRUE(s.consumer_alive);
 }
 
+// Another local user reads no frame and no map (#50.8: segments were 0644).
+TEST(ShmRing, ASegmentIsTheOwnersOnly) {
+  SegmentGuard g{UniqueName("mode")};
+  const mode_t old_umask = ::umask(0);  // Boost's permissions are the segment's, whatever the umask
+  RingProducer p(g.name, {2, 64, OverflowPolicy::kDropNewest});
+  ::umask(old_umask);
+  struct stat st {};
+  ASSERT_EQ(::stat(("/dev/shm/" + g.name).c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 0777, 0600u) << std::oct << (st.st_mode & 0777);
+}
+
 TEST(ShmRing, DropOldestKeepsNewestAndConsumerSkips) {
   SegmentGuard g{UniqueName("oldest")};
   RingProducer p(g.name, {3, 16, OverflowPolicy::kDropOldest});
