@@ -209,6 +209,26 @@ TEST_F(Daemon, OneRumidPerStateFolder) {
   pid_ = -1;
 }
 
+// Two rumids of one instance name (two robot.yaml in two folders): the second
+// is refused before it touches the first one's shared memory (#50.2: it
+// removed the first one's segments at its stop).
+TEST_F(Daemon, OneRumidPerInstance) {
+  const std::string cfg = Config("inst");
+  pid_ = Start({"--config", cfg}, {}, (dir_ / "rumid_inst_a.log").string());
+  const auto t0 = Clock::now();
+  while (Since(t0) < 30 && Status(State("inst")).value("state", std::string()) != "running")
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  const std::string log_b = (dir_ / "rumid_inst_b.log").string();
+  const pid_t b = Start({"--config", cfg, "--state-dir", (dir_ / "state_inst_b").string()}, {}, log_b);
+  EXPECT_EQ(WaitExit(b, 20), 2);
+  EXPECT_NE(Slurp(log_b).find("another rumid (pid " + std::to_string(pid_) + ") runs instance 'inst'"),
+            std::string::npos)
+      << Slurp(log_b);
+  ::kill(pid_, SIGTERM);
+  EXPECT_EQ(WaitExit(pid_, 15), 0);
+  pid_ = -1;
+}
+
 // A child that crashes at every start: restarted with backoff, then given up
 // on with one clear line; rumid fails (systemd's Restart= takes over).
 TEST_F(Daemon, ACrashLoopGivesUpWithAClearLine) {

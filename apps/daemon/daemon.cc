@@ -107,6 +107,14 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
     spdlog::error("rumid: {}", why);
     return kExitBadInput;
   }
+  // One rumid per instance on the machine too: the instance names the
+  // shared-memory segments, and a second rumid of the same name (two
+  // robot.yaml in two folders) removed the first one's at its stop.
+  StateDirLock instance_lock;
+  if (!instance_lock.Acquire(InstanceLockPath(o.instance), "instance '" + o.instance + "' on this machine", &why)) {
+    spdlog::error("rumid: {}: give this one another --instance (or daemon.instance)", why);
+    return kExitBadInput;
+  }
   const RumiConfig& c = o.config;
   if (c.source.kind == "dataset" && c.source.path.empty()) {
     spdlog::error("rumid: source.path is empty in {}: which dataset, camera or stream?", o.config_path);

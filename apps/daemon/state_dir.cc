@@ -25,17 +25,23 @@ std::string ResolveStateDir(const std::string& cli, const std::string& config, c
   return "/var/lib/rumi/" + instance;
 }
 
+std::string InstanceLockPath(const std::string& instance) { return "/dev/shm/.rumid_" + instance + ".lock"; }
+
 bool StateDirLock::Acquire(const StateDirLayout& layout, std::string* why) {
-  fd_ = ::open(layout.Lock().c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  return Acquire(layout.Lock(), "on " + layout.root, why);
+}
+
+bool StateDirLock::Acquire(const std::string& path, const std::string& what, std::string* why) {
+  fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600);
   if (fd_ < 0) {
-    if (why) *why = "cannot open " + layout.Lock() + ": " + std::strerror(errno);
+    if (why) *why = "cannot open " + path + ": " + std::strerror(errno);
     return false;
   }
   if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
-    std::ifstream in(layout.Lock());
+    std::ifstream in(path);
     std::string holder;
     std::getline(in, holder);
-    if (why) *why = "another rumid (pid " + (holder.empty() ? std::string("?") : holder) + ") runs on " + layout.root;
+    if (why) *why = "another rumid (pid " + (holder.empty() ? std::string("?") : holder) + ") runs " + what;
     ::close(fd_);
     fd_ = -1;
     return false;

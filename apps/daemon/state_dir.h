@@ -27,11 +27,19 @@ struct StateDirLayout {
 // systemd's $STATE_DIRECTORY, else /var/lib/rumi/<instance>.
 std::string ResolveStateDir(const std::string& cli, const std::string& config, const std::string& instance);
 
-// Holds rumid.lock (flock, released when the process ends, even by SIGKILL).
+// The lock of one rumid per instance on the machine: beside the instance's
+// shared-memory segments (/dev/shm/.rumid_<instance>.lock: the same
+// namespace, and a name the segment scan, "rumi_*", never reads).
+std::string InstanceLockPath(const std::string& instance);
+
+// Holds a rumid lock file (flock, released when the process ends, even by
+// SIGKILL): rumid.lock in the state folder, and the instance's.
 class StateDirLock {
  public:
   // False with *why when another rumid holds it (its pid in the message).
   bool Acquire(const StateDirLayout& layout, std::string* why);
+  // `what` ends the message: "another rumid (pid 12) runs <what>".
+  bool Acquire(const std::string& path, const std::string& what, std::string* why);
   ~StateDirLock();
 
  private:
