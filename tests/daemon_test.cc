@@ -229,6 +229,39 @@ TEST_F(Daemon, OneRumidPerInstance) {
   pid_ = -1;
 }
 
+// The state folder deleted under a running rumid (#50.3: a warning every
+// second, the folder never came back, and a second rumid could start on the
+// same path): made again and locked again, said in the log, and the map is
+// saved there at the stop.
+TEST_F(Daemon, ADeletedStateFolderIsMadeAndLockedAgain) {
+  const std::string cfg = Config("gone");
+  const std::string log = (dir_ / "rumid_gone.log").string();
+  pid_ = Start({"--config", cfg}, {}, log);
+  auto t0 = Clock::now();
+  while (Since(t0) < 30 && Status(State("gone")).value("state", std::string()) != "running")
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  ASSERT_EQ(Status(State("gone")).value("state", std::string()), "running") << Slurp(log);
+  fs::remove_all(State("gone"));
+  t0 = Clock::now();
+  while (Since(t0) < 10 && Slurp(log).find("locking it again") == std::string::npos)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_NE(Slurp(log).find("was deleted or replaced while rumid ran"), std::string::npos) << Slurp(log);
+  EXPECT_TRUE(fs::exists(State("gone") / "rumid.lock"));
+  const std::string log_b = (dir_ / "rumid_gone_b.log").string();
+  const pid_t b = Start({"--config", cfg, "--instance", "gone_b"}, {}, log_b);
+  EXPECT_EQ(WaitExit(b, 20), 2);
+  EXPECT_NE(Slurp(log_b).find("another rumid (pid " + std::to_string(pid_) + ") runs on"), std::string::npos)
+      << Slurp(log_b);
+  t0 = Clock::now();
+  while (Since(t0) < 10 && !fs::exists(State("gone") / "status.json"))
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_TRUE(fs::exists(State("gone") / "status.json"));
+  ::kill(pid_, SIGTERM);
+  EXPECT_EQ(WaitExit(pid_, 20), 0) << Slurp(log);
+  pid_ = -1;
+  EXPECT_TRUE(fs::exists(State("gone") / "map.rumi")) << Slurp(log);
+}
+
 // A child that crashes at every start: restarted with backoff, then given up
 // on with one clear line; rumid fails (systemd's Restart= takes over).
 TEST_F(Daemon, ACrashLoopGivesUpWithAClearLine) {

@@ -235,7 +235,22 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
     st["summary"] = DaemonSummary(st);
     return st;
   };
+  // The state folder deleted under a running rumid: its lock guarded nothing
+  // and status.json could not be written (a warning a second). Made again
+  // and locked again, said in the log: the manager has the map in memory and
+  // writes it there at its next save.
+  auto relock_if_lost = [&]() {
+    if (lock.StillHeld()) return;
+    spdlog::warn("rumid: the state folder {} was deleted or replaced while rumid ran: making it again and "
+                 "locking it again (the manager writes the map there at its next save)",
+                 layout.root);
+    std::error_code mk;
+    for (const std::string& d : {layout.root, layout.Front(), layout.Back(), layout.Logs()}) fs::create_directories(d, mk);
+    std::string err;
+    if (!lock.Acquire(layout, &err) && failure.empty()) failure = "the state folder was taken over: " + err;
+  };
   auto publish = [&]() {
+    relock_if_lost();
     const nlohmann::json st = status_json();
     std::string err;
     if (!WriteFileAtomically(layout.Status(), st.dump(2) + "\n", &err)) spdlog::warn("rumid: {}", err);

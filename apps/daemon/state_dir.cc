@@ -1,6 +1,7 @@
 #include "apps/daemon/state_dir.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <sys/file.h>
 #include <unistd.h>
 
@@ -32,6 +33,8 @@ bool StateDirLock::Acquire(const StateDirLayout& layout, std::string* why) {
 }
 
 bool StateDirLock::Acquire(const std::string& path, const std::string& what, std::string* why) {
+  if (fd_ >= 0) ::close(fd_);
+  path_ = path;
   fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600);
   if (fd_ < 0) {
     if (why) *why = "cannot open " + path + ": " + std::strerror(errno);
@@ -51,6 +54,12 @@ bool StateDirLock::Acquire(const std::string& path, const std::string& what, std
     // The lock holds; the pid is only for the message of a second rumid.
   }
   return true;
+}
+
+bool StateDirLock::StillHeld() const {
+  struct stat held {}, now {};
+  if (fd_ < 0 || ::fstat(fd_, &held) != 0 || ::stat(path_.c_str(), &now) != 0) return false;
+  return held.st_dev == now.st_dev && held.st_ino == now.st_ino;
 }
 
 StateDirLock::~StateDirLock() {

@@ -40,10 +40,14 @@ class StateDirLock {
   bool Acquire(const StateDirLayout& layout, std::string* why);
   // `what` ends the message: "another rumid (pid 12) runs <what>".
   bool Acquire(const std::string& path, const std::string& what, std::string* why);
+  // False when the locked file is no longer at its path (its folder was
+  // deleted or replaced): the lock then guards nothing.
+  bool StillHeld() const;
   ~StateDirLock();
 
  private:
   int fd_ = -1;
+  std::string path_;
 };
 
 // Next number from the generation file (0, 1, 2, ... across rumid runs),
