@@ -118,8 +118,16 @@ GridFrame EstimateGridFrame(const std::vector<GridKeyframe>& kfs, const Trajecto
   Sim3 S;  // map -> a frame with z up (metric when the scale is known)
   double bin;
   if (!odometry.empty()) {
+    // One pose per time, in time order: a merged map holds a front and a back
+    // keyframe of the same frame (generated corridor seed 1: two at
+    // 1005.033 s, and the fit refused the map).
     Trajectory keyframes;
     for (const auto& k : kfs) keyframes.push_back({k.timestamp, k.T_wc});
+    std::stable_sort(keyframes.begin(), keyframes.end(),
+                     [](const StampedPose& a, const StampedPose& b) { return a.t < b.t; });
+    keyframes.erase(std::unique(keyframes.begin(), keyframes.end(),
+                                [](const StampedPose& a, const StampedPose& b) { return a.t == b.t; }),
+                    keyframes.end());
     AteOptions ate;  // the evaluation's own association and Sim(3) Umeyama
     ate.association.max_diff_s = o.association_s;
     AteResult fit;
