@@ -1,6 +1,7 @@
 #include "common/trajectory.h"
 
 #include <Eigen/SVD>
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cinttypes>
@@ -423,6 +424,13 @@ void CheckStrictlyIncreasing(const Trajectory& traj, const std::string& name) {
                                "); timestamps must be strictly increasing");
     }
   }
+}
+
+void SortOnePosePerTime(Trajectory* traj) {
+  std::stable_sort(traj->begin(), traj->end(), [](const StampedPose& a, const StampedPose& b) { return a.t < b.t; });
+  traj->erase(std::unique(traj->begin(), traj->end(),
+                          [](const StampedPose& a, const StampedPose& b) { return a.t == b.t; }),
+              traj->end());
 }
 
 }  // namespace rumi

@@ -69,4 +69,8 @@ void WriteTrajectory(const std::string& path, const Trajectory& traj, Trajectory
 // Throws unless timestamps are strictly increasing; `name` goes in the message.
 void CheckStrictlyIncreasing(const Trajectory& traj, const std::string& name);
 
+// In time order with one pose per time (the first of each): a merged map
+// holds a front and a back keyframe of the same frame.
+void SortOnePosePerTime(Trajectory* traj);
+
 }  // namespace rumi

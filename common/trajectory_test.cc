@@ -164,6 +164,18 @@ TEST(TrajectoryReaders, NonRegularFilesAreRefusedAtOnce) {
   EXPECT_THROW(ReadEurocTrajectory("/dev/zero"), std::runtime_error);
 }
 
+TEST(Trajectory, SortOnePosePerTimeKeepsTheFirstOfEachTime) {
+  Trajectory t;
+  for (Timestamp ts : {3, 1, 2, 1, 3}) t.push_back({ts, Se3()});
+  t[1].T_wc.translation().x() = 7;  // the first pose at t = 1
+  SortOnePosePerTime(&t);
+  ASSERT_EQ(t.size(), 3u);
+  EXPECT_EQ(t[0].t, 1);
+  EXPECT_EQ(t[0].T_wc.translation().x(), 7);
+  EXPECT_EQ(t[2].t, 3);
+  EXPECT_NO_THROW(CheckStrictlyIncreasing(t, "t"));
+}
+
 TEST(TrajectoryReaders, MalformedLinesNameFileLineAndReason) {
   const std::string good = "1.0 0 0 0 0 0 0 1\n";
   struct Case {

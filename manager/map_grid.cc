@@ -183,6 +183,7 @@ bool WriteMapGrid(const GlobalMap& map, const GridOptions& o, const Trajectory& 
       !WriteGridPreview(grid, path, (out / "grid.png").string(), &r->why))
     return false;
   try {
+    SortOnePosePerTime(&traj);  // a readable trajectory: one pose per time
     WriteTumTrajectory((out / "grid_trajectory.txt").string(), traj);
   } catch (const std::exception& e) {
     r->why = e.what();

@@ -123,11 +123,7 @@ GridFrame EstimateGridFrame(const std::vector<GridKeyframe>& kfs, const Trajecto
     // 1005.033 s, and the fit refused the map).
     Trajectory keyframes;
     for (const auto& k : kfs) keyframes.push_back({k.timestamp, k.T_wc});
-    std::stable_sort(keyframes.begin(), keyframes.end(),
-                     [](const StampedPose& a, const StampedPose& b) { return a.t < b.t; });
-    keyframes.erase(std::unique(keyframes.begin(), keyframes.end(),
-                                [](const StampedPose& a, const StampedPose& b) { return a.t == b.t; }),
-                    keyframes.end());
+    SortOnePosePerTime(&keyframes);
     AteOptions ate;  // the evaluation's own association and Sim(3) Umeyama
     ate.association.max_diff_s = o.association_s;
     AteResult fit;
