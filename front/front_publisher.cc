@@ -1,5 +1,7 @@
 #include "front/front_publisher.h"
 
+#include "common/atomic_file.h"
+
 #include <malloc.h>
 
 #include <nlohmann/json.hpp>
@@ -479,20 +481,9 @@ bool FrontPublisher::WriteFinalFiles(const std::vector<Submap>& finished) {
       if (!d.is_null()) j["link"] = std::move(d);  // the robot link's final statistics
     }
   }
-  const std::string path = o_.out_dir + "/front_stats.json";
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::trunc);
-    f << j.dump(2) << '\n';
-    if (!f) {
-      spdlog::error("front publisher: cannot write {}", tmp);
-      return false;
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    spdlog::error("front publisher: cannot write {}: {}", path, ec.message());
+  std::string why;
+  if (!WriteFileAtomically(o_.out_dir + "/front_stats.json", j.dump(2) + "\n", &why)) {
+    spdlog::error("front publisher: {}", why);
     ok = false;
   }
   return ok;
