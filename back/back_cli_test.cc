@@ -9,6 +9,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include "common/test_require.h"
 
 namespace fs = std::filesystem;
 
@@ -19,7 +20,7 @@ class BackCliTest : public ::testing::Test {
   void SetUp() override {
     const char* bin = std::getenv("RUMI_BIN_DIR");
     exe_ = (fs::path(bin ? bin : RUMI_BINARY_DIR "/bin") / "rumi-back").string();
-    if (!fs::exists(exe_)) GTEST_SKIP() << "build rumi-back first: " << exe_;
+    RUMI_REQUIRE(fs::exists(exe_), "build rumi-back first: " << exe_);
     dir_ = fs::temp_directory_path() / ("rumi_back_cli_test_" + std::to_string(::getpid()));
     fs::remove_all(dir_);
     fs::create_directories(dir_ / "win" / "img");

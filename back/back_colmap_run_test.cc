@@ -9,6 +9,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "common/test_require.h"
 #include "back/back_submap_builder.h"
 #include "back/window_dir.h"
 #include "common/geometry.h"
@@ -18,8 +19,8 @@ namespace {
 
 TEST(BackColmapRunTest, TumOfficeEightFrames) {
   const std::string data = std::string(RUMI_SHARED_DATA_DIR) + "/tum_fr3_office_sparse17";
-  if (!std::filesystem::exists(data + "/rgb.txt")) GTEST_SKIP() << "no " << data;
-  if (std::system("colmap help > /dev/null 2>&1") != 0) GTEST_SKIP() << "no colmap on PATH";
+  RUMI_REQUIRE(std::filesystem::exists(data + "/rgb.txt"), "no " << data);
+  RUMI_REQUIRE(std::system("colmap help > /dev/null 2>&1") == 0, "no colmap on PATH");
 
   PinholeCameraOptions cam;
   cam.width = 640;

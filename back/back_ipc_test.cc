@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "common/test_require.h"
 #include "back/canned_colmap_model.h"
 #include "common/timestamp.h"
 #include "common/process/exit_codes.h"
@@ -34,7 +35,7 @@ class BackIpcTest : public ::testing::Test {
   void SetUp() override {
     const char* bin = std::getenv("RUMI_BIN_DIR");
     exe_ = (fs::path(bin ? bin : RUMI_BINARY_DIR "/bin") / "rumi-back").string();
-    if (!fs::exists(exe_)) GTEST_SKIP() << "build rumi-back first: " << exe_;
+    RUMI_REQUIRE(fs::exists(exe_), "build rumi-back first: " << exe_);
     const std::string name = ::testing::UnitTest::GetInstance()->current_test_info()->name();
     dir_ = fs::temp_directory_path() / ("rumi_back_ipc_test_" + std::to_string(::getpid()) + "_" + name);
     fs::remove_all(dir_);

@@ -6,6 +6,7 @@
 
 #include <Eigen/Geometry>
 
+#include "common/test_require.h"
 #include "common/imu_synth.h"
 #include "front/front.h"
 #include "front/front_test_util.h"
@@ -67,7 +68,7 @@ Played Play(const TestSequence& seq, int frames, int skip_from, int skip_to, Fro
 
 TEST(FrontGyro, BridgesAGapInTheFramesAndLearnsTheBias) {
   auto seq = LoadKitti(80);
-  if (!seq) GTEST_SKIP() << "KITTI excerpt not found";
+  RUMI_REQUIRE(seq, "KITTI excerpt not found");
   const SynthImu s;
   FrontOptions o;
   o.imu_T_bc = s.T_bc;
@@ -95,7 +96,7 @@ TEST(FrontGyro, BridgesAGapInTheFramesAndLearnsTheBias) {
 
 TEST(FrontGyro, AGyroThatDisagreesWithVisionIsSwitchedOff) {
   auto seq = LoadKitti(60);
-  if (!seq) GTEST_SKIP() << "KITTI excerpt not found";
+  RUMI_REQUIRE(seq, "KITTI excerpt not found");
   // A broken sensor: a steady 1.5 rad/s roll that never happened.
   std::vector<ImuSample> imu = MakeImu(*seq, SynthImu());
   for (ImuSample& x : imu) x.gyro = Eigen::Vector3d(1.5, 0, 0);

@@ -8,6 +8,7 @@
 #include "front/front.h"
 #include "front/front_publisher.h"
 #include "front/front_test_util.h"
+#include "common/test_require.h"
 
 namespace rumi {
 namespace {
@@ -21,7 +22,7 @@ cv::Mat Noise(const cv::Size& sz, unsigned seed) {
 
 TEST(FrontLoss, BlackAndNoiseFramesStartANewSubmapWithinOneSecond) {
   auto seq = LoadKitti(76);
-  if (!seq) GTEST_SKIP() << "KITTI excerpt not found";
+  RUMI_REQUIRE(seq, "KITTI excerpt not found");
   FrontOptions o;
   o.local_mapping_thread = false;
   o.local_ba_max_time_s = 60;  // no wall-clock cut: same result on a loaded CI machine
@@ -96,7 +97,7 @@ TEST(FrontLoss, BlackAndNoiseFramesStartANewSubmapWithinOneSecond) {
 
 TEST(FrontLoss, DroppedFramesRelocaliseOrRestartWithinOneSecond) {
   auto seq = LoadKitti(70);
-  if (!seq) GTEST_SKIP() << "KITTI excerpt not found";
+  RUMI_REQUIRE(seq, "KITTI excerpt not found");
   FrontOptions o;
   o.local_mapping_thread = false;
   o.local_ba_max_time_s = 60;  // no wall-clock cut: same result on a loaded CI machine
@@ -128,7 +129,7 @@ TEST(FrontLoss, DroppedFramesRelocaliseOrRestartWithinOneSecond) {
 
 TEST(FrontLoss, HierarchicalCoarseStateChainsSubmapsByPosePrior) {
   auto seq = LoadKitti(66);
-  if (!seq) GTEST_SKIP() << "KITTI excerpt not found";
+  RUMI_REQUIRE(seq, "KITTI excerpt not found");
   FrontOptions o;
   o.local_mapping_thread = false;
   o.local_ba_max_time_s = 60;  // no wall-clock cut: same result on a loaded CI machine

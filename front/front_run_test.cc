@@ -12,6 +12,7 @@
 #include <set>
 #include <thread>
 
+#include "common/test_require.h"
 #include "common/process/exit_codes.h"
 #include "common/run_metrics.h"
 #include "common/trajectory.h"
@@ -81,7 +82,7 @@ FrontRunOptions KittiRun(const fs::path& out, const char* tag) {
 }
 
 TEST(FrontRun, RunsOnKittiFramesWithConsumers) {
-  if (!fs::exists(kKitti)) GTEST_SKIP() << kKitti << " missing";
+  RUMI_REQUIRE(fs::exists(kKitti), kKitti << " missing");
   const fs::path out = OutDir("ok");
   FrontRunOptions a = KittiRun(out, "ok");
   a.front.local_mapping_thread = false;
@@ -138,7 +139,7 @@ TEST(FrontRun, RunsOnKittiFramesWithConsumers) {
 // A stop before the end of the stream: outputs written, channels closed, and
 // the exit code says the work was not done (it used to be 0).
 TEST(FrontRun, StopEndsWithOutputsAndSaysSo) {
-  if (!fs::exists(kKitti)) GTEST_SKIP() << kKitti << " missing";
+  RUMI_REQUIRE(fs::exists(kKitti), kKitti << " missing");
   const fs::path out = OutDir("sig");
   FrontRunOptions a = KittiRun(out, "sig");
   a.publisher.wait_for_consumers_s = 30;  // nobody attaches: the stop path must not wait that long

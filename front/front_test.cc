@@ -7,6 +7,7 @@
 #include <set>
 
 #include "front/front_test_util.h"
+#include "common/test_require.h"
 
 namespace rumi {
 namespace {
@@ -58,7 +59,7 @@ void ExpectValidSubmap(const Submap& s) {
 
 TEST(Front, TracksKittiStretch) {
   auto seq = LoadKitti(60);
-  if (!seq) GTEST_SKIP() << "KITTI excerpt not found";
+  RUMI_REQUIRE(seq, "KITTI excerpt not found");
   Front front(SyncOptions(), seq->camera);
   int tracked = 0, first_tracked = -1;
   for (size_t i = 0; i < seq->frames.size(); ++i) {

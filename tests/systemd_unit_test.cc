@@ -12,6 +12,7 @@
 #include <string>
 
 #include "tests/rumi_cli_util.h"
+#include "common/test_require.h"
 
 namespace {
 
@@ -37,8 +38,8 @@ int Verify(const std::string& unit_text, const fs::path& dir, const std::string&
 }
 
 TEST(SystemdUnit, VerifiesCleanlyAndHoldsWhatTheServiceNeeds) {
-  if (std::system("command -v systemd-analyze > /dev/null 2>&1") != 0)
-    GTEST_SKIP() << "systemd-analyze is not installed (Debian package systemd; scripts/setup.sh installs it)";
+  RUMI_REQUIRE(std::system("command -v systemd-analyze > /dev/null 2>&1") == 0,
+               "systemd-analyze is not installed (Debian package systemd; scripts/setup.sh installs it)");
   std::string unit = Slurp(kUnit);
   ASSERT_FALSE(unit.empty()) << kUnit;
   const std::string exec = "/usr/local/bin/rumid";

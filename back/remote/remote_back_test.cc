@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "common/test_require.h"
 #include "back/canned_colmap_model.h"
 #include "common/process/exit_codes.h"
 #include "common/timestamp.h"
@@ -44,7 +45,7 @@ class RemoteBackTest : public ::testing::Test {
   void SetUp() override {
     const char* bin = std::getenv("RUMI_BIN_DIR");
     exe_ = (fs::path(bin ? bin : RUMI_BINARY_DIR "/bin") / "rumi-back").string();
-    if (!fs::exists(exe_)) GTEST_SKIP() << "build rumi-back first: " << exe_;
+    RUMI_REQUIRE(fs::exists(exe_), "build rumi-back first: " << exe_);
     name_ = ::testing::UnitTest::GetInstance()->current_test_info()->name();
     dir_ = fs::temp_directory_path() / ("rumi_remote_back_test_" + std::to_string(::getpid()) + "_" + name_);
     fs::remove_all(dir_);
