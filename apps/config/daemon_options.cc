@@ -23,8 +23,13 @@ const OptionSpec<DaemonOptions>& DaemonOptions::Spec() {
     s->Number("crash_loop_restarts", &O::crash_loop_restarts, AtLeast(0), AtMost(1000),
               "more crashes than this within crash_loop_window_s: give up on the child");
     s->Number("crash_loop_window_s", &O::crash_loop_window_s, Above(0.0), AtMost(86400.0), "crash-loop window");
+    s->Number("front_stall_s", &O::front_stall_s, Above(0.0), AtMost(86400.0),
+              "a front without a heartbeat for this long is killed and restarted");
+    s->Number("back_stall_s", &O::back_stall_s, Above(0.0), AtMost(86400.0),
+              "a back without a heartbeat for this long is killed and restarted");
     s->Number("manager_stall_s", &O::manager_stall_s, Above(0.0), AtMost(86400.0),
-              "no WATCHDOG=1 to systemd once the manager's loop has not turned for this long");
+              "a manager whose loop has not turned for this long is killed and restarted (and no WATCHDOG=1 "
+              "goes to systemd meanwhile)");
     s->Number("status_interval_s", &O::status_interval_s, AtLeast(0.05), AtMost(3600.0),
               "status.json is rewritten this often");
     s->Rule("restart_backoff_max_s must be >= restart_backoff_initial_s",

@@ -31,8 +31,15 @@ struct DaemonOptions {
   double restart_backoff_max_s = 30.0;
   int crash_loop_restarts = 5;
   double crash_loop_window_s = 120.0;
-  // WATCHDOG=1 to systemd only while every child is alive and the manager's
-  // loop turned within this many seconds (a rebuild blocks it).
+  // A running child that sent no heartbeat for this long is stalled
+  // (stopped, deadlocked): rumid kills it and restarts it as after a crash,
+  // with or without systemd. The manager's loop beats between rebuilds (a
+  // rebuild blocks it), and rumid sends WATCHDOG=1 to systemd only while the
+  // manager's beat is younger than manager_stall_s. The front and the back
+  // beat from a thread of their own; the back's may wait behind COLMAP at
+  // idle priority on a busy machine, so it gets the longest.
+  double front_stall_s = 30.0;
+  double back_stall_s = 300.0;
   double manager_stall_s = 60.0;
   // status.json in the state folder is rewritten this often.
   double status_interval_s = 1.0;

@@ -274,6 +274,7 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
     while (!sup.info(i).ready && sup.Alive(i) && Since(t0) < 30 && !(stop && stop->load())) sup.Poll(0.05);
   }
 
+  std::vector<pid_t> stall_killed(sup.size(), -1);  // the pid killed as stalled, per child
   bool ready_sent = false, source_ended = false;
   pid_t back_told = -1, manager_told = -1;  // told the source ended (SIGUSR1)
   auto last_watchdog = Clock::now() - std::chrono::hours(1);
@@ -299,6 +300,21 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
       }
     }
     if (!failure.empty()) break;
+    // A child alive but silent (SIGSTOP, a deadlock) does nothing and says
+    // nothing: killed, it is restarted as after a crash (a manager stopped
+    // for 90 s stayed "running" and only systemd's watchdog would act).
+    for (const auto& [i, stall_s] : {std::pair<int, double>{front, d.front_stall_s}, {back, d.back_stall_s},
+                                     {manager, d.manager_stall_s}}) {
+      const ChildInfo& in = sup.info(i);
+      const double age = in.heartbeat_age_s();
+      if (in.state != ChildState::kRunning || !in.ready || !std::isfinite(age) || age < stall_s) continue;
+      if (stall_killed[i] == in.pid) continue;  // killed already, not reaped yet
+      stall_killed[i] = in.pid;
+      spdlog::error("rumid: {} (pid {}) sent no heartbeat for {:.0f} s (daemon.{}_stall_s {}): stalled; killing it "
+                    "to restart it",
+                    in.name, in.pid, age, i == front ? "front" : i == back ? "back" : "manager", stall_s);
+      sup.Signal(i, SIGKILL);
+    }
     if (forward_hangup && forward_hangup->exchange(false)) {
       for (int i = 0; i < static_cast<int>(sup.size()); ++i) sup.Signal(i, SIGHUP);
     }
