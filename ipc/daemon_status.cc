@@ -1,9 +1,13 @@
 #include "ipc/daemon_status.h"
 
+#include <algorithm>
+
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
+
+#include "common/process/process_info.h"
 
 namespace rumi {
 namespace {
@@ -158,6 +162,22 @@ bool ReadDaemonStatus(const std::string& state_dir, nlohmann::json* status, std:
     return false;
   }
   return true;
+}
+
+DaemonLiveness CheckDaemonLiveness(const nlohmann::json& st, double now_unix_s) {
+  DaemonLiveness l;
+  const pid_t pid = st.value("pid", 0);
+  const std::string state = st.value("state", std::string());
+  const uint64_t ticks = pid > 0 ? ProcessStartTicks(pid) : 0;
+  // The pid may be long gone, or reused by another process since.
+  const bool same = ticks != 0 && (!st.contains("pid_start_ticks") || st["pid_start_ticks"].get<uint64_t>() == ticks);
+  l.alive = same && state != "stopped" && state != "failed";
+  if (st.contains("updated_unix_s") && st["updated_unix_s"].is_number()) {
+    l.age_s = now_unix_s - st["updated_unix_s"].get<double>();
+    const double interval = st.value("status_interval_s", 1.0);
+    l.stale = l.alive && l.age_s > std::max(10.0, 5 * interval);
+  }
+  return l;
 }
 
 }  // namespace rumi

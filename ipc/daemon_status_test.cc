@@ -1,5 +1,7 @@
 #include "ipc/daemon_status.h"
 
+#include "common/process/process_info.h"
+
 #include <gtest/gtest.h>
 
 #include <sstream>
@@ -45,6 +47,34 @@ TEST(DaemonStatus, CsvGivesEachChildsPrivateAndSharedMemory) {
 
   const std::string text = FormatDaemonStatus(st, true);
   EXPECT_NE(text.find("rumi-front 250 MiB (100 private, 10 fds)"), std::string::npos) << text;
+}
+
+// rumi status: a rumid that is gone, or another process under its old pid,
+// is not running; one that stopped writing status.json is stale (#50.5: a
+// stale file read as "running").
+TEST(DaemonStatus, LivenessFromPidIdentityAndTheLastWrite) {
+  const ProcessId me = SelfProcessId();
+  nlohmann::json st = {{"pid", int(me.pid)},       {"pid_start_ticks", me.start_ticks}, {"state", "running"},
+                       {"updated_unix_s", 1000.0}, {"status_interval_s", 1.0}};
+  DaemonLiveness l = CheckDaemonLiveness(st, 1003.0);
+  EXPECT_TRUE(l.alive);
+  EXPECT_FALSE(l.stale);
+  EXPECT_DOUBLE_EQ(l.age_s, 3.0);
+  l = CheckDaemonLiveness(st, 1011.0);  // 11 s: over max(10 s, 5 intervals)
+  EXPECT_TRUE(l.alive);
+  EXPECT_TRUE(l.stale);
+  st["status_interval_s"] = 5.0;  // 25 s allowed
+  EXPECT_FALSE(CheckDaemonLiveness(st, 1011.0).stale);
+  st["pid_start_ticks"] = me.start_ticks + 1;  // the pid reused by another process
+  EXPECT_FALSE(CheckDaemonLiveness(st, 1001.0).alive);
+  st["pid_start_ticks"] = me.start_ticks;
+  st["state"] = "stopped";
+  EXPECT_FALSE(CheckDaemonLiveness(st, 1001.0).alive);
+  EXPECT_FALSE(CheckDaemonLiveness(st, 2000.0).stale);  // not running is not stale
+  st = {{"pid", int(me.pid)}, {"state", "running"}};  // an older file: pid only, no time
+  l = CheckDaemonLiveness(st, 1001.0);
+  EXPECT_TRUE(l.alive);
+  EXPECT_FALSE(l.stale);
 }
 
 }  // namespace

@@ -1,5 +1,8 @@
 // `rumi status`: what a running rumid instance is doing, from the status.json
 // it rewrites every second in its state folder (ipc/daemon_status.h).
+#include <chrono>
+
+#include <fmt/format.h>
 #include <iostream>
 #include <memory>
 
@@ -30,21 +33,29 @@ void RegisterStatusCommand(CLI::App* app) {
       std::cerr << "rumi status: " << why << "\n";
       throw CLI::RuntimeError(1);
     }
-    // The pid in the file may be long gone (or reused: the state says stopped).
-    const pid_t pid = st.value("pid", 0);
-    const std::string state = st.value("state", std::string());
-    const bool alive = pid > 0 && ProcessStartTicks(pid) != 0 && state != "stopped" && state != "failed";
+    const double now =
+        std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+    const DaemonLiveness l = CheckDaemonLiveness(st, now);
+    const bool alive = l.alive;
+    const std::string stale =
+        l.stale ? fmt::format("STALE: status.json was last written {:.0f} s ago; rumid (pid {}) runs but does not "
+                              "write it (stopped or hung?)",
+                              l.age_s, st.value("pid", 0))
+                : "";
     if (a->json) {
       st["alive"] = alive;
+      st["stale"] = l.stale;
       std::cout << st.dump(2) << "\n";
     } else if (a->csv) {
       std::cout << DaemonStatusCsv(st, true);
     } else if (a->brief) {
-      std::cout << (alive ? "" : "not running: ") << DaemonSummary(st) << "\n";
+      std::cout << (alive ? "" : "not running: ") << (l.stale ? "stale: " : "") << DaemonSummary(st) << "\n";
     } else {
+      if (!stale.empty()) std::cout << stale << "\n";
       std::cout << FormatDaemonStatus(st, alive);
     }
     if (!alive) throw CLI::RuntimeError(3);  // scripts: not running
+    if (l.stale) throw CLI::RuntimeError(4);  // running, but what it says is old
   });
 }
 

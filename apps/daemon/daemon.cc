@@ -201,9 +201,12 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
     nlohmann::json st;
     st["instance"] = o.instance;
     st["pid"] = ::getpid();
+    st["pid_start_ticks"] = SelfProcessId().start_ticks;
     st["state"] = state;
     st["started"] = started_wall;
     st["updated"] = WallClockNow();
+    st["updated_unix_s"] = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+    st["status_interval_s"] = d.status_interval_s;
     st["uptime_s"] = Since(started);
     st["config"] = o.config_path;
     st["state_dir"] = o.state_dir;
