@@ -300,6 +300,34 @@ TEST_F(Daemon, AStalledManagerIsKilledAndRestarted) {
   pid_ = -1;
 }
 
+// The manager's final save fails (map.rumi cannot be replaced: here a
+// folder in its way, as a full disk would): rumid exits 1 and says what is
+// kept (#50.5: it logged "stopped" and exited 0).
+TEST_F(Daemon, AFailedFinalSaveFailsRumid) {
+  const std::string cfg = Config("save", "manager: {map_save_interval_s: 1}\n");
+  const std::string log = (dir_ / "rumid_save.log").string();
+  pid_ = Start({"--config", cfg}, {}, log);
+  auto t0 = Clock::now();
+  while (Since(t0) < 30 && Status(State("save")).value("state", std::string()) != "running")
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  t0 = Clock::now();  // a save or two, then the map file cannot be replaced
+  while (Since(t0) < 30 && !fs::exists(State("save") / "map.rumi"))
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  fs::remove(State("save") / "map.rumi");
+  fs::create_directories(State("save") / "map.rumi" / "in_the_way");
+  // The next save fails (the map is then unsaved at the stop, whatever comes).
+  const fs::path manager_log = State("save") / "logs" / "rumi-manager.log";
+  t0 = Clock::now();
+  while (Since(t0) < 30 && Slurp(manager_log).find("[error]") == std::string::npos)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  ASSERT_NE(Slurp(manager_log).find("[error]"), std::string::npos) << Slurp(manager_log);
+  ::kill(pid_, SIGTERM);
+  EXPECT_EQ(WaitExit(pid_, 20), 1) << Slurp(log);
+  pid_ = -1;
+  EXPECT_NE(Slurp(log).find("rumi-manager's last save failed"), std::string::npos) << Slurp(log);
+  EXPECT_EQ(Status(State("save"))["state"], "failed");
+}
+
 // A child that crashes at every start: restarted with backoff, then given up
 // on with one clear line; rumid fails (systemd's Restart= takes over).
 TEST_F(Daemon, ACrashLoopGivesUpWithAClearLine) {

@@ -382,6 +382,17 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
   publish();
   const auto t_stop = Clock::now();
   sup.StopAll({front, back, manager}, d.stop_timeout_s);
+  // The manager's last save is the session's map: when it failed (a full
+  // disk), rumid fails too and says what is kept (it logged "stopped" and
+  // exited 0).
+  const ChildInfo& last = sup.info(manager);
+  if (failure.empty() && last.exited_once && WIFEXITED(last.last_status) &&
+      WEXITSTATUS(last.last_status) == kExitError) {
+    failure = "rumi-manager's last save failed (exit 1, its log says why): map.rumi is the last whole save, and "
+              "the submaps received since are in map.rumi.received/ for the next start";
+    spdlog::error("rumid: {}", failure);
+    state = "failed";
+  }
   // Drained segments go; one that still holds messages (a manager stopped
   // before it read them) stays for the next start, which reads it.
   for (const std::string& name : InstanceSegmentNames(o.instance)) {
