@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -54,6 +55,28 @@ TEST(SystemdUnit, VerifiesCleanlyAndHoldsWhatTheServiceNeeds) {
         "ConfigurationDirectory=rumi", "ProtectSystem=strict", "NoNewPrivileges=yes", "KillMode=mixed",
         "DeviceAllow=char-video4linux rw", "ExecReload=/bin/kill -HUP $MAINPID", "--config /etc/rumi/%i.yaml"}) {
     EXPECT_NE(unit.find(line), std::string::npos) << line;
+  }
+  // Least privilege, as systemd scores it (issue #50: <= 3.0; 5.5 before
+  // the capability bounding set, ProtectProc= and the system-call filter).
+  {
+    const fs::path unit_path = dir / "score" / "rumid@robot1.service";
+    fs::create_directories(unit_path.parent_path());
+    std::ofstream(unit_path) << unit;
+    const std::string cmd = "systemd-analyze security --offline=true " + unit_path.string() + " 2>&1";
+    std::string text;
+    if (FILE* p = ::popen(cmd.c_str(), "r")) {
+      char buf[4096];
+      size_t n;
+      while ((n = std::fread(buf, 1, sizeof(buf), p)) > 0) text.append(buf, n);
+      ::pclose(p);
+    }
+    const size_t at = text.find("Overall exposure level for");
+    ASSERT_NE(at, std::string::npos) << text;
+    const double score = std::atof(text.c_str() + text.find(": ", at) + 2);
+    std::printf("systemd-analyze security: %.1f\n", score);
+    EXPECT_LE(score, 3.0) << text.substr(at);
+    for (const char* line : {"CapabilityBoundingSet=\n", "SystemCallFilter=@system-service", "ProtectProc=invisible"})
+      EXPECT_NE(unit.find(line), std::string::npos) << line;
   }
   // The check can fail: a misspelt key and a missing executable are reported.
   std::string bad = unit;
