@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "common/camera_config.h"
+#include "common/stats.h"
 
 namespace rumi {
 namespace fs = std::filesystem;
@@ -105,10 +106,6 @@ std::string Join(const std::vector<std::string>& v) {
   return s;
 }
 
-double Median(std::vector<double> v) {
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 
 }  // namespace
 
@@ -243,7 +240,7 @@ CalibrationResult CalibrateCamera(const std::vector<CalibrationImage>& images, c
   // Drop the views that disagree with the rest, once, and fit again.
   std::vector<double> errors;
   for (size_t i : used()) errors.push_back(r.views[i].rms_px);
-  const double median = Median(errors);
+  const double median = UpperMedian(errors);
   const double limit = std::max(options.outlier_factor * median, options.max_rms_px);
   int dropped = 0;
   for (size_t i : used()) {

@@ -5,16 +5,11 @@
 #include <unordered_set>
 
 #include "common/timestamp.h"
+#include "common/stats.h"
 
 namespace rumi {
 namespace {
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const size_t m = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + long(m), v.end());
-  return v[m];
-}
 
 }  // namespace
 
@@ -42,7 +37,7 @@ std::vector<size_t> PoseJumps(const Submap& s, double max_ratio) {
         st.push_back(steps[k]);
         sp.push_back(speeds[k]);
       }
-    const double step = Median(st), speed = Median(sp);
+    const double step = UpperMedian(st), speed = UpperMedian(sp);
     const auto reach = [&](size_t a, size_t b) {
       return (c[a] - c[b]).norm() <= max_ratio * std::max(speed * std::abs(t[a] - t[b]), step);
     };

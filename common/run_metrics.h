@@ -11,6 +11,7 @@
 #include "common/timestamp.h"
 #include "common/trajectory.h"
 #include "common/trajectory_eval.h"
+#include "common/stats.h"  // Median, PercentileNearestRank (for the callers of these metrics)
 
 namespace rumi {
 
@@ -124,10 +125,6 @@ TrajectoryMetrics ComputeTrajectoryMetrics(const std::vector<Timestamp>& frames,
 std::string FormatRunMetricsJson(const RunMetricsReport& report);
 void WriteRunMetricsJson(const std::string& path, const RunMetricsReport& report);
 
-// Numpy-style median (mean of the two middle values) and nearest-rank p-th
-// percentile (p in [0, 100]); nullopt for no values.
-std::optional<double> Median(std::vector<double> values);
-std::optional<double> PercentileNearestRank(std::vector<double> values, double p);
 
 // ---- run-dir files written by rumi-front (contract in docs/eval.md) --------
 struct FrontFrameLine {

@@ -1,4 +1,5 @@
 #include "common/trajectory_eval.h"
+#include "common/stats.h"
 
 #include <algorithm>
 #include <cmath>
@@ -38,13 +39,6 @@ void RequireIncreasing(const std::vector<Timestamp>& t, const char* what) {
   }
 }
 
-double Median(std::vector<double> v) {
-  const size_t n = v.size();
-  std::nth_element(v.begin(), v.begin() + n / 2, v.end());
-  const double upper = v[n / 2];
-  if (n % 2 == 1) return upper;
-  return 0.5 * (upper + *std::max_element(v.begin(), v.begin() + n / 2));
-}
 
 
 // Ground truth on a straight line (a slider, a rail): Umeyama leaves the
@@ -186,7 +180,7 @@ ErrorStats ComputeErrorStats(const std::vector<double>& errors) {
   double var = 0.0;
   for (double e : errors) var += (e - s.mean) * (e - s.mean);
   s.std = std::sqrt(var / n);
-  s.median = Median(errors);
+  s.median = Median(errors).value_or(0.0);
   return s;
 }
 

@@ -3,7 +3,7 @@
 #include <cmath>
 
 #include "common/logging.h"
-#include "common/run_metrics.h"
+#include "common/stats.h"
 #include "manager/sim3_alignment.h"
 
 namespace rumi {

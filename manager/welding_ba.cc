@@ -6,7 +6,7 @@
 #include <cmath>
 #include <unordered_map>
 
-#include "common/run_metrics.h"
+#include "common/stats.h"
 #include "manager/ceres_util.h"
 #include "manager/sim3_alignment.h"
 #include "manager/submap_index.h"

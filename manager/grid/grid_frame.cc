@@ -1,5 +1,6 @@
 #include "manager/grid/grid_frame.h"
 
+#include "common/stats.h"
 #include "common/trajectory_eval.h"
 
 #include <Eigen/Eigenvalues>
@@ -25,11 +26,6 @@ const OptionSpec<GridFrameOptions>& GridFrameOptions::Spec() {
 
 namespace {
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 
 // Rotation taking `up` to +z (the x axis: `x_hint` made perpendicular).
 Eigen::Matrix3d UpToZ(const Eigen::Vector3d& up, const Eigen::Vector3d& x_hint) {
@@ -51,7 +47,7 @@ bool FindFloor(const std::vector<GridKeyframe>& kfs, const Sim3& S, double bin, 
                double* share, std::string* why) {
   std::vector<double> cams;
   for (const auto& k : kfs) cams.push_back((S * k.T_wc.translation()).z());
-  *cam_z = Median(cams);
+  *cam_z = UpperMedian(cams);
   std::map<long, int> hist;
   std::vector<double> below;
   for (const auto& k : kfs)
@@ -82,7 +78,7 @@ bool FindFloor(const std::vector<GridKeyframe>& kfs, const Sim3& S, double bin, 
            " map points below the cameras, no layer holds 20 and 5 % of them";
     return false;
   }
-  *floor_z = Median(layer);
+  *floor_z = UpperMedian(layer);
   return true;
 }
 
@@ -136,7 +132,7 @@ GridFrame EstimateGridFrame(const std::vector<GridKeyframe>& kfs, const Trajecto
     f.odometry_pairs = static_cast<int>(fit.pairs.size());
     std::vector<double> heights;
     for (const PosePair& p : fit.pairs) heights.push_back(odometry[p.gt].T_wc.translation().z());
-    odometry_height = Median(heights);
+    odometry_height = UpperMedian(heights);
     if (!(fit.S_gt_est.scale() > 0)) {
       f.why = "the keyframes do not fit the odometry (scale " + std::to_string(fit.S_gt_est.scale()) + ")";
       return f;
@@ -176,7 +172,7 @@ GridFrame EstimateGridFrame(const std::vector<GridKeyframe>& kfs, const Trajecto
     // little floor).
     std::vector<double> cams;
     for (const auto& k : kfs) cams.push_back((S * k.T_wc.translation()).z());
-    cam_z = Median(cams);
+    cam_z = UpperMedian(cams);
     floor_z = cam_z - odometry_height;
     f.floor_source = "odometry";
   } else if (!FindFloor(kfs, S, bin, &floor_z, &cam_z, &f.floor_points_share, &f.why)) {
