@@ -13,6 +13,18 @@ inline ceres::LossFunction* MakeRobustLoss(const std::string& name, double scale
   return new ceres::HuberLoss(scale);
 }
 
+// The one Ceres set-up of the manager's solves (Sim(3) refinement, welding
+// BA): single-threaded (the manager shares the machine with the realtime
+// front), silent, with the problem's linear solver and iteration cap.
+inline ceres::Solver::Options ManagerSolverOptions(ceres::LinearSolverType linear_solver, int max_iterations) {
+  ceres::Solver::Options so;
+  so.linear_solver_type = linear_solver;
+  so.max_num_iterations = max_iterations;
+  so.logging_type = ceres::SILENT;
+  so.num_threads = 1;
+  return so;
+}
+
 // Pinhole projection for Ceres functors.
 template <typename T>
 inline void PinholeProject(double fx, double fy, double cx, double cy, const T* p, T* uv) {

@@ -94,11 +94,7 @@ int Solve(const std::vector<Sim3Observation>& obs, const ManagerOptions& o, Sim3
         MakeRobustLoss(o.robust_loss, o.robust_loss_scale_px), &log_s, q.coeffs().data(), t.data());
   }
   problem.SetManifold(q.coeffs().data(), new ceres::EigenQuaternionManifold);
-  ceres::Solver::Options so;
-  so.linear_solver_type = ceres::DENSE_QR;
-  so.max_num_iterations = o.refine_max_iterations;
-  so.logging_type = ceres::SILENT;
-  so.num_threads = 1;
+  const ceres::Solver::Options so = ManagerSolverOptions(ceres::DENSE_QR, o.refine_max_iterations);
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
   *S = Sim3(std::exp(log_s), q.normalized(), t);

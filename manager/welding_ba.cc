@@ -154,11 +154,7 @@ WeldingReport WeldWindow(GlobalMap* map, int front, int back, const std::unorder
     return std::sqrt(2.0 * cost / double(blocks.size()));
   };
   rep.initial_rmse_px = rmse();
-  ceres::Solver::Options so;
-  so.linear_solver_type = ceres::SPARSE_SCHUR;
-  so.max_num_iterations = options.ba_max_iterations;
-  so.logging_type = ceres::SILENT;
-  so.num_threads = 1;
+  const ceres::Solver::Options so = ManagerSolverOptions(ceres::SPARSE_SCHUR, options.ba_max_iterations);
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
   rep.iterations = int(summary.iterations.size());
