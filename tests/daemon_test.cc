@@ -81,6 +81,13 @@ class Daemon : public ::testing::Test {
     return pid;
   }
   static int WaitExit(pid_t pid, double timeout_s) { return test::WaitExit(pid, timeout_s); }
+  // Waits (at most 30 s) until the rumid of state folder `name` says it is running.
+  bool WaitRunning(const std::string& name) const {
+    const auto t0 = Clock::now();
+    while (Since(t0) < 30 && Status(State(name)).value("state", std::string()) != "running")
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    return Status(State(name)).value("state", std::string()) == "running";
+  }
   static nlohmann::json Status(const fs::path& state) { return test::ReadStatus(state); }
   static pid_t ChildPid(const nlohmann::json& st, const std::string& name) {
     return test::StatusChild(st, name).value("pid", -1);
@@ -204,9 +211,7 @@ TEST_F(Daemon, OneRumidPerStateFolder) {
   const std::string cfg = Config("lock");
   const std::string log = (dir_ / "rumid_lock_a.log").string();
   pid_ = Start({"--config", cfg}, {}, log);
-  const auto t0 = Clock::now();
-  while (Since(t0) < 30 && Status(State("lock")).value("state", std::string()) != "running")
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  WaitRunning("lock");  // (the checks below need the lock, not readiness)
   const std::string log_b = (dir_ / "rumid_lock_b.log").string();
   const pid_t b = Start({"--config", cfg, "--instance", "another"}, {}, log_b);
   EXPECT_EQ(WaitExit(b, 20), 2);
@@ -223,9 +228,7 @@ TEST_F(Daemon, OneRumidPerStateFolder) {
 TEST_F(Daemon, OneRumidPerInstance) {
   const std::string cfg = Config("inst");
   pid_ = Start({"--config", cfg}, {}, (dir_ / "rumid_inst_a.log").string());
-  const auto t0 = Clock::now();
-  while (Since(t0) < 30 && Status(State("inst")).value("state", std::string()) != "running")
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  WaitRunning("inst");  // (the checks below need the lock, not readiness)
   const std::string log_b = (dir_ / "rumid_inst_b.log").string();
   const pid_t b = Start({"--config", cfg, "--state-dir", (dir_ / "state_inst_b").string()}, {}, log_b);
   EXPECT_EQ(WaitExit(b, 20), 2);
@@ -245,12 +248,9 @@ TEST_F(Daemon, ADeletedStateFolderIsMadeAndLockedAgain) {
   const std::string cfg = Config("gone");
   const std::string log = (dir_ / "rumid_gone.log").string();
   pid_ = Start({"--config", cfg}, {}, log);
-  auto t0 = Clock::now();
-  while (Since(t0) < 30 && Status(State("gone")).value("state", std::string()) != "running")
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  ASSERT_EQ(Status(State("gone")).value("state", std::string()), "running") << Slurp(log);
+  WaitRunning("gone");  // (the relock needs rumid's loop, not the children's readiness)
   fs::remove_all(State("gone"));
-  t0 = Clock::now();
+  auto t0 = Clock::now();
   while (Since(t0) < 10 && Slurp(log).find("locking it again") == std::string::npos)
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   EXPECT_NE(Slurp(log).find("was deleted or replaced while rumid ran"), std::string::npos) << Slurp(log);
@@ -277,9 +277,8 @@ TEST_F(Daemon, AStalledManagerIsKilledAndRestarted) {
   const std::string cfg = Config("stall", "  manager_stall_s: 2\n");
   const std::string log = (dir_ / "rumid_stall.log").string();
   pid_ = Start({"--config", cfg}, {}, log);
+  WaitRunning("stall");
   auto t0 = Clock::now();
-  while (Since(t0) < 30 && Status(State("stall")).value("state", std::string()) != "running")
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
   const pid_t stopped = ChildPid(Status(State("stall")), "rumi-manager");
   ASSERT_GT(stopped, 0) << Slurp(log);
   ASSERT_EQ(::kill(stopped, SIGSTOP), 0);
@@ -307,9 +306,8 @@ TEST_F(Daemon, AFailedFinalSaveFailsRumid) {
   const std::string cfg = Config("save", "manager: {map_save_interval_s: 1}\n");
   const std::string log = (dir_ / "rumid_save.log").string();
   pid_ = Start({"--config", cfg}, {}, log);
+  WaitRunning("save");
   auto t0 = Clock::now();
-  while (Since(t0) < 30 && Status(State("save")).value("state", std::string()) != "running")
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
   t0 = Clock::now();  // a save or two, then the map file cannot be replaced
   while (Since(t0) < 30 && !fs::exists(State("save") / "map.rumi"))
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
