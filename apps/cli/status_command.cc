@@ -1,12 +1,11 @@
 // `rumi status`: what a running rumid instance is doing, from the status.json
 // it rewrites every second in its state folder (ipc/daemon_status.h).
-#include <chrono>
-
 #include <fmt/format.h>
 #include <iostream>
 #include <memory>
 
 #include "common/process/process_info.h"
+#include "common/timestamp.h"
 #include "apps/cli/commands.h"
 #include "ipc/daemon_status.h"
 #include "apps/daemon/state_dir.h"
@@ -33,9 +32,7 @@ void RegisterStatusCommand(CLI::App* app) {
       std::cerr << "rumi status: " << why << "\n";
       throw CLI::RuntimeError(1);
     }
-    const double now =
-        std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-    const DaemonLiveness l = CheckDaemonLiveness(st, now);
+    const DaemonLiveness l = CheckDaemonLiveness(st, NsToSeconds(WallNowNs()));
     const bool alive = l.alive;
     const std::string stale =
         l.stale ? fmt::format("STALE: status.json was last written {:.0f} s ago; rumid (pid {}) runs but does not "

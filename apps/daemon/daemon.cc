@@ -205,7 +205,7 @@ int RunDaemon(const DaemonRunOptions& o, const std::atomic<bool>* stop, std::ato
     st["state"] = state;
     st["started"] = started_wall;
     st["updated"] = WallClockNow();
-    st["updated_unix_s"] = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+    st["updated_unix_s"] = NsToSeconds(WallNowNs());
     st["status_interval_s"] = d.status_interval_s;
     st["uptime_s"] = Since(started);
     st["config"] = o.config_path;
