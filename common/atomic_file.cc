@@ -38,11 +38,14 @@ bool WriteAll(int fd, const uint8_t* p, size_t n) {
 
 }  // namespace
 
-bool WriteFileAtomically(const std::string& path, const void* data, size_t size, std::string* why) {
+bool WriteFileAtomically(const std::string& path, const void* data, size_t size, std::string* why, unsigned mode) {
   // Unique per process and call: two threads may save different files of one folder.
   static std::atomic<uint64_t> counter{0};
   const std::string tmp = path + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  // A stale temporary of a crashed writer (same pid) would keep its old mode
+  // through O_TRUNC: remove it and create the file anew with this mode.
+  ::unlink(tmp.c_str());
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, mode);
   if (fd < 0) {
     if (why) *why = Errno("cannot create", tmp);
     return false;

@@ -12,10 +12,14 @@
 namespace rumi {
 
 // False with *why naming the file and the system's reason (e.g. "No space
-// left on device").
-bool WriteFileAtomically(const std::string& path, const void* data, size_t size, std::string* why);
-inline bool WriteFileAtomically(const std::string& path, const std::string& text, std::string* why) {
-  return WriteFileAtomically(path, text.data(), text.size(), why);
+// left on device"). mode: the new file's permissions (less the umask); a
+// secret is written 0600 and is never readable by others, not even while it
+// is being written.
+bool WriteFileAtomically(const std::string& path, const void* data, size_t size, std::string* why,
+                         unsigned mode = 0644);
+inline bool WriteFileAtomically(const std::string& path, const std::string& text, std::string* why,
+                                unsigned mode = 0644) {
+  return WriteFileAtomically(path, text.data(), text.size(), why, mode);
 }
 inline bool WriteFileAtomically(const std::string& path, const std::vector<uint8_t>& bytes, std::string* why) {
   return WriteFileAtomically(path, bytes.data(), bytes.size(), why);

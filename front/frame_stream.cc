@@ -41,6 +41,9 @@ const OptionSpec<SourceOptions>& SourceOptions::Spec() {
     s->Section("link", &O::link, LinkOptions::Spec());
     s->Rule("reconnect_max_s must be >= reconnect_initial_s",
             [](const O& o) { return o.reconnect_max_s >= o.reconnect_initial_s; });
+    s->Rule("kind link: set link.key_file (a key from `rumi link keygen`) or, for an unauthenticated lab link, "
+            "link.insecure: true",
+            [](const O& o) { return o.kind != "link" || o.link.Keyed(); });
     return s;
   }();
   return *spec;

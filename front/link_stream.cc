@@ -31,14 +31,20 @@ class LinkStream : public FrameStream {
   std::string Status() const override {
     if (ended_) return "ended";
     const LinkStats s = link_->stats();
-    if (!s.robot_heard) return "waiting for the robot on " + o_.bind;
+    if (!s.robot_heard)
+      return "waiting for the robot on " + o_.bind +
+             (s.unauthenticated + s.auth_failures
+                  ? " (" + std::to_string(s.unauthenticated + s.auth_failures) + " datagrams refused: no or wrong key)"
+                  : std::string());
     if (s.robot_silent_s > o_.silence_s)
       return "robot silent for " + std::to_string(static_cast<int>(s.robot_silent_s)) + " s";
-    char b[200];
-    std::snprintf(b, sizeof(b), "streaming: %llu frames, %llu dropped, latency p50 %.0f ms%s%s",
+    char b[300];
+    std::snprintf(b, sizeof(b), "streaming: %llu frames, %llu dropped, latency p50 %.0f ms%s%s%s%s",
                   static_cast<unsigned long long>(s.frames_delivered),
                   static_cast<unsigned long long>(s.frames.frames_dropped + s.frames_overflow), s.latency_p50_ms,
-                  s.robot_halted ? ", robot halted" : "", s.robot_failsafe ? " (fail-safe)" : "");
+                  s.robot_halted ? ", robot halted" : "", s.robot_failsafe ? " (fail-safe)" : "",
+                  s.insecure ? ", INSECURE link" : "",
+                  s.halt_alarm ? ", HALT ALARM: the robot does not do as asked" : "");
     return b;
   }
   nlohmann::json Detail() const override { return link_->stats().ToJson(); }

@@ -39,6 +39,7 @@ SnapshotLink LinkFromStatusJson(const std::string& status_detail_json) {
   const nlohmann::json& clock = k.contains("clock") ? k["clock"] : none;
   const nlohmann::json& rate = k.contains("rate_control") ? k["rate_control"] : none;
   const nlohmann::json& gyro = k.contains("gyro") ? k["gyro"] : none;
+  const nlohmann::json& auth = k.contains("auth") ? k["auth"] : none;
   l.present = true;
   l.robot_heard = flag(k, "robot_heard");
   l.robot_halted = flag(k, "robot_halted");
@@ -57,6 +58,11 @@ SnapshotLink LinkFromStatusJson(const std::string& status_detail_json) {
   l.imu_gaps = static_cast<int64_t>(num(k, "imu_gaps"));
   l.gyro_predicted = static_cast<int64_t>(num(gyro, "predicted"));
   l.gyro_bridged = static_cast<int64_t>(num(gyro, "bridged"));
+  l.authenticated = flag(auth, "authenticated");
+  l.insecure = flag(auth, "insecure");
+  l.auth_failures = static_cast<int64_t>(num(auth, "unauthenticated") + num(auth, "failures") +
+                                         num(auth, "replays") + num(auth, "wrong_source"));
+  l.halt_alarm = flag(k, "halt_alarm");
   return l;
 }
 

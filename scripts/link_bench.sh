@@ -53,9 +53,10 @@ for seed in $seeds; do
     rm -rf "$run"
     mkdir -p "$run"
     port=$((21000 + RANDOM % 20000))
+    "$bin/rumi" link keygen --out "$run/robot.key" > /dev/null
     {
       cat "$seq/camera.yaml"
-      printf 'log_level: info\nsource:\n  kind: link\n  link: {bind: "127.0.0.1:%s", end_after_silence_s: 3}\n' "$port"
+      printf 'log_level: info\nsource:\n  kind: link\n  link: {bind: "127.0.0.1:%s", end_after_silence_s: 3, key_file: %s}\n' "$port" "$run/robot.key"
       printf 'daemon:\n  child_output: files\n  state_dir: %s/state\n' "$run"
     } > "$run/rumid.yaml"
     "$bin/rumid" --config "$run/rumid.yaml" --instance "lb$$_$seed" > "$run/rumid.log" 2>&1 &
@@ -63,7 +64,7 @@ for seed in $seeds; do
     sleep 2
     # shellcheck disable=SC2086
     "$bin/rumi" robot-sim "$seq" --ground "127.0.0.1:$port" --seed "$seed" --clock-offset-ms 4321.5 --drift-ppm 20 \
-      --stats-out "$run/sim.json" --groundtruth-out "$run/gt.txt" $args > "$run/sim.log" 2>&1 || true
+      --stats-out "$run/sim.json" --groundtruth-out "$run/gt.txt" --key "$run/robot.key" $args > "$run/sim.log" 2>&1 || true
     for _ in $(seq 1 1200); do kill -0 "$rumid_pid" 2>/dev/null || break; sleep 0.5; done
     kill -TERM "$rumid_pid" 2>/dev/null || true
     wait "$rumid_pid" 2>/dev/null || true

@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 PACKAGES=(
   build-essential cmake ccache pkg-config git ca-certificates
   libopencv-dev libeigen3-dev libceres-dev libspdlog-dev libfmt-dev libboost-dev
-  libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libsystemd-dev libsqlite3-dev
+  libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libsystemd-dev libsqlite3-dev libmbedtls-dev
   cyclonedds-dev cyclonedds-tools colmap
   libgtest-dev libgmock-dev libbenchmark-dev
   systemd util-linux iproute2

@@ -41,6 +41,8 @@ class CalibrateLink : public ::testing::Test {
     dir_ = fs::temp_directory_path() / ("rumi_calibrate_link_" + std::to_string(::getpid()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
+    std::string why;
+    ASSERT_TRUE(GenerateLinkKey(&key_, &why) && WriteLinkKey((dir_ / "robot.key").string(), key_, false, &why)) << why;
   }
   void TearDown() override {
     if (pid_ > 0) {
@@ -54,6 +56,7 @@ class CalibrateLink : public ::testing::Test {
     const int port = FreeUdpPort();
     SpawnOptions so;
     so.argv = {test::BinPath("rumi"), "calibrate", "--link", "127.0.0.1:" + std::to_string(port), "--robot-id", "7",
+               "--link-key", (dir_ / "robot.key").string(),
                "--out", (dir_ / "camera.yaml").string(), "--save-views", (dir_ / "views").string()};
     so.argv.insert(so.argv.end(), extra.begin(), extra.end());
     so.log_path = (dir_ / "calibrate.log").string();
@@ -68,6 +71,8 @@ class CalibrateLink : public ::testing::Test {
     SimRobotOptions ro;
     ro.ground = "127.0.0.1:" + std::to_string(port);
     ro.robot_id = 7;
+    ro.has_key = true;
+    ro.key = key_;
     ro.up = {0.05, 1, 10, 5, 0};
     ro.down = {0.05, 1, 10, 5, 0};
     robot_ = std::make_unique<SimRobot>(ro);
@@ -87,6 +92,7 @@ class CalibrateLink : public ::testing::Test {
     return -1;
   }
   fs::path dir_;
+  LinkKey key_{};
   pid_t pid_ = -1;
   std::unique_ptr<SimRobot> robot_;
 };

@@ -48,12 +48,11 @@ std::string Join(const std::vector<std::string>& v) {
 // is asked to stand still. Ends when the views calibrate (at least
 // `target` of them and the coverage reached), at the timeout, or on Ctrl-C;
 // then the views it has are calibrated (and refused if they cannot be).
-std::vector<CalibrationImage> CollectFromLink(const std::string& bind, int robot_id, int target, double timeout_s,
+std::vector<CalibrationImage> CollectFromLink(const LinkOptions& lo, int target, double timeout_s,
                                               const std::string& save_dir, const CalibrationOptions& o,
                                               std::ostream& log) {
-  LinkOptions lo;
-  lo.bind = bind;
-  lo.robot_id = robot_id;
+  const std::string& bind = lo.bind;
+  const int robot_id = lo.robot_id;
   std::unique_ptr<LinkEndpoint> link;
   try {
     link = std::make_unique<LinkEndpoint>(lo);
@@ -118,10 +117,10 @@ std::vector<CalibrationImage> CollectFromLink(const std::string& bind, int robot
 
 void RegisterCalibrateCommand(CLI::App* app) {
   struct Args {
-    std::string images, link, board = "9x6", out, save_views;
+    std::string images, link, board = "9x6", out, save_views, link_key;
     int robot_id = 1, views = 20;
     double timeout_s = 300;
-    bool overwrite = false;
+    bool overwrite = false, link_insecure = false;
     CalibrationOptions o;
   };
   auto a = std::make_shared<Args>();
@@ -135,6 +134,8 @@ void RegisterCalibrateCommand(CLI::App* app) {
   images->excludes(link);
   link->excludes(images);
   cmd->add_option("--robot-id", a->robot_id, "--link: the robot's id")->capture_default_str()->check(CLI::Range(0, 65535));
+  cmd->add_option("--link-key", a->link_key, "--link: the robot's key file (source.link.key_file)");
+  cmd->add_flag("--link-insecure", a->link_insecure, "--link: an unauthenticated link (source.link.insecure)");
   cmd->add_option("--views", a->views, "--link: calibrate once this many views are kept (and the coverage reached)")
       ->capture_default_str()
       ->check(CLI::Range(3, 1000));
@@ -174,7 +175,12 @@ void RegisterCalibrateCommand(CLI::App* app) {
     std::ostream& log = a->out.empty() ? std::cerr : std::cout;
     std::vector<CalibrationImage> images;
     if (!a->link.empty()) {
-      images = CollectFromLink(a->link, a->robot_id, a->views, a->timeout_s, a->save_views, o, log);
+      LinkOptions lo;
+      lo.bind = a->link;
+      lo.robot_id = a->robot_id;
+      lo.key_file = a->link_key;
+      lo.insecure = a->link_insecure;
+      images = CollectFromLink(lo, a->views, a->timeout_s, a->save_views, o, log);
     } else {
       try {
         images = ReadCalibrationImages(a->images);

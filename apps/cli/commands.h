@@ -16,5 +16,6 @@ void AddEvalGridCommand(CLI::App* eval);    // grid_command.cc: under `eval`
 void RegisterQueryCommand(CLI::App* app);   // query_command.cc: the map over DDS
 void RegisterCalibrateCommand(CLI::App* app);  // calibrate_command.cc: camera from chessboard photos
 void RegisterRobotSimCommand(CLI::App* app);   // robot_sim_command.cc: a simulated robot on the link
+void RegisterLinkCommand(CLI::App* app);       // link_command.cc: `rumi link keygen`
 
 }  // namespace rumi::cli

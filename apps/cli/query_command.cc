@@ -111,7 +111,9 @@ nlohmann::json StatusJson(const SnapshotStatus& s) {
                  {"clock_synced", l.clock_synced},     {"clock_offset_ms", l.clock_offset_ms},
                  {"asked_fps", l.asked_fps},           {"imu_samples", l.imu_samples},
                  {"imu_gaps", l.imu_gaps},             {"gyro_predicted", l.gyro_predicted},
-                 {"gyro_bridged", l.gyro_bridged}};
+                 {"gyro_bridged", l.gyro_bridged},     {"authenticated", l.authenticated},
+                 {"insecure", l.insecure},             {"auth_failures", l.auth_failures},
+                 {"halt_alarm", l.halt_alarm}};
   return j;
 }
 
@@ -135,11 +137,14 @@ void Status(const QueryArgs& a) {
   if (const SnapshotLink& l = s.link; l.present)
     std::cout << fmt::format(
         "  link: robot {}{}, {} frames delivered, {} dropped, latency p50/p95/max {:.0f}/{:.0f}/{:.0f} ms, clock {}, "
-        "RSSI {} dBm, asked {:.1f} fps, gyro {} predicted, {} bridged\n",
+        "RSSI {} dBm, asked {:.1f} fps, gyro {} predicted, {} bridged, {}{}{}\n",
         l.robot_heard ? (l.robot_halted ? "halted" : "walking") : "not heard", l.robot_failsafe ? " (fail-safe)" : "",
         l.frames_delivered, l.frames_dropped, l.latency_p50_ms, l.latency_p95_ms, l.latency_max_ms,
         l.clock_synced ? fmt::format("{:+.1f} ms", l.clock_offset_ms) : std::string("not synced"), l.rssi_dbm,
-        l.asked_fps, l.gyro_predicted, l.gyro_bridged);
+        l.asked_fps, l.gyro_predicted, l.gyro_bridged,
+        l.insecure ? "INSECURE" : (l.authenticated ? "authenticated" : "not authenticated"),
+        l.auth_failures ? fmt::format(", {} refused", l.auth_failures) : std::string(),
+        l.halt_alarm ? ", HALT ALARM (the robot does not do as asked)" : "");
   const nlohmann::json detail = nlohmann::json::parse(s.json, nullptr, false);
   if (detail.is_object() && detail.contains("daemon"))  // the table `rumi status` prints on the ground station
     std::cout << FormatDaemonStatus(detail["daemon"], true);

@@ -42,7 +42,8 @@ namespace {
 
 struct Args {
   std::string dataset, config, kind = "tum", ground = "127.0.0.1:5600", bind = "127.0.0.1:0";
-  std::string groundtruth_out, frames_out, stats_out;
+  std::string groundtruth_out, frames_out, stats_out, key_file;
+  bool insecure = false;
   int robot_id = 1, quality = 90, max_frames = 0;
   double loss = 0, burst = 1, latency_ms = 0, jitter_ms = 0, bandwidth_kbps = 0;
   double down_loss = -1;
@@ -80,6 +81,15 @@ void Run(const Args& a) {
   so.clock_offset_ms = a.clock_offset_ms;
   so.drift_ppm = a.drift_ppm;
   so.seed = a.seed;
+  if (a.key_file.empty() == !a.insecure)
+    Fail("give the robot its key (--key FILE, the ground station's link.key_file) or, for an "
+         "unauthenticated lab link, --insecure",
+         2);
+  if (!a.key_file.empty()) {
+    std::string why;
+    if (!LoadLinkKey(a.key_file, &so.key, &why)) Fail(why, 2);
+    so.has_key = true;
+  }
   std::unique_ptr<SimRobot> robot;
   try {
     robot = std::make_unique<SimRobot>(so);
@@ -256,6 +266,13 @@ void Run(const Args& a) {
       {"nacks_too_old", rs.nacks_too_old},
       {"imu_samples", rs.imu_samples},
       {"failsafe_stops", rs.failsafe_stops},
+      {"auth",
+       {{"keyed", so.has_key},
+        {"sessions", rs.sessions},
+        {"unauthenticated", rs.unauthenticated},
+        {"failures", rs.auth_failures},
+        {"replays", rs.replays},
+        {"frames_no_session", rs.frames_no_session}}},
       {"datagrams_lost_up", robot->up_lost()},
       {"datagrams_lost_down", robot->down_lost()},
       {"clock_offset_ms", (robot->RobotClockAt(now) - now) * 1e-3},
@@ -276,6 +293,8 @@ void RegisterRobotSimCommand(CLI::App* app) {
   cmd->add_option("--ground", a->ground, "the ground station's link address (source.link.bind)");
   cmd->add_option("--bind", a->bind, "the robot's own address (port 0: any)");
   cmd->add_option("--robot-id", a->robot_id, "robot id")->check(CLI::Range(0, 65535));
+  cmd->add_option("--key", a->key_file, "the robot's key file (`rumi link keygen`): an authenticated link");
+  cmd->add_flag("--insecure", a->insecure, "no key: an unauthenticated link (the ground station's link.insecure)");
   cmd->add_option("--loss", a->loss, "datagram loss probability, both ways")->check(CLI::Range(0.0, 0.9));
   cmd->add_option("--down-loss", a->down_loss, "ground -> robot loss (default: --loss)")->check(CLI::Range(0.0, 0.9));
   cmd->add_option("--burst", a->burst, "mean length of a loss burst (1: independent)")->check(CLI::Range(1.0, 1000.0));

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   rumi::cli::RegisterQueryCommand(&app);
   rumi::cli::RegisterCalibrateCommand(&app);
   rumi::cli::RegisterRobotSimCommand(&app);
+  rumi::cli::RegisterLinkCommand(&app);
   app.parse_complete_callback([&] { rumi::SetupLogging("rumi", log_level); });
   CLI11_PARSE(app, argc, argv);
   return 0;

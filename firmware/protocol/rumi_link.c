@@ -52,8 +52,9 @@ uint32_t rl_crc32(uint32_t crc, const uint8_t* data, size_t len) {
 #define HEARTBEAT_SIZE 24u
 #define TIME_REQ_SIZE 8u
 #define TIME_RESP_SIZE 24u
+#define HELLO_SIZE (4u + 2u * RL_NONCE_SIZE)
 
-static int valid_type(int t) { return t >= RL_FRAME && t <= RL_NACK; }
+static int valid_type(int t) { return t >= RL_FRAME && t <= RL_HELLO; }
 
 int rl_parse(const uint8_t* buf, size_t len, rl_message* m) {
   const uint8_t* p;
@@ -72,7 +73,13 @@ int rl_parse(const uint8_t* buf, size_t len, rl_message* m) {
   m->h.frag_count = get16(buf + 18);
   m->h.time_us = get64(buf + 20);
   m->h.payload_len = get16(buf + 28);
-  if (len > RL_MAX_DATAGRAM || (size_t)m->h.payload_len != len - RL_HEADER_SIZE) return RL_ERR_LENGTH;
+  {
+    const size_t tag = (m->h.flags & RL_FLAG_AUTH) ? RL_TAG_SIZE : 0u;
+    if (len > RL_MAX_DATAGRAM || len < RL_HEADER_SIZE + tag ||
+        (size_t)m->h.payload_len != len - RL_HEADER_SIZE - tag)
+      return RL_ERR_LENGTH;
+    if (tag) m->tag = buf + RL_HEADER_SIZE + m->h.payload_len;
+  }
   {
     uint32_t crc = rl_crc32(0, buf, 32);
     crc = rl_crc32(crc, buf + RL_HEADER_SIZE, m->h.payload_len);
@@ -169,6 +176,12 @@ int rl_parse(const uint8_t* buf, size_t len, rl_message* m) {
         if (m->u.nack.index[i] >= RL_MAX_FRAGMENTS) return RL_ERR_PAYLOAD;
       }
       return RL_OK;
+    case RL_HELLO:
+      if (n != HELLO_SIZE) return RL_ERR_PAYLOAD;
+      m->u.hello.role = p[0];
+      memcpy(m->u.hello.nonce_robot, p + 4, RL_NONCE_SIZE);
+      memcpy(m->u.hello.nonce_ground, p + 4 + RL_NONCE_SIZE, RL_NONCE_SIZE);
+      return m->u.hello.role == RL_ROLE_ROBOT || m->u.hello.role == RL_ROLE_GROUND ? RL_OK : RL_ERR_PAYLOAD;
     default:
       return RL_ERR_TYPE;
   }
@@ -260,10 +273,18 @@ size_t rl_encode(const rl_message* m, uint8_t* out, size_t cap) {
       put16(p + 2, 0);
       for (i = 0; i < m->u.nack.count; ++i) put16(p + 4 + 2 * i, m->u.nack.index[i]);
       break;
+    case RL_HELLO:
+      n = HELLO_SIZE;
+      if (RL_HEADER_SIZE + n > cap) return 0;
+      memset(p, 0, 4);
+      p[0] = m->u.hello.role;
+      memcpy(p + 4, m->u.hello.nonce_robot, RL_NONCE_SIZE);
+      memcpy(p + 4 + RL_NONCE_SIZE, m->u.hello.nonce_ground, RL_NONCE_SIZE);
+      break;
     default:
       return 0;
   }
-  if (RL_HEADER_SIZE + n > RL_MAX_DATAGRAM) return 0;
+  if (RL_HEADER_SIZE + n + ((m->h.flags & RL_FLAG_AUTH) ? RL_TAG_SIZE : 0u) > RL_MAX_DATAGRAM) return 0;
   put16(out, RL_MAGIC);
   out[2] = RL_VERSION;
   out[3] = m->h.type;
@@ -311,6 +332,7 @@ const char* rl_type_name(int type) {
     case RL_TIME_REQ: return "time_req";
     case RL_TIME_RESP: return "time_resp";
     case RL_NACK: return "nack";
+    case RL_HELLO: return "hello";
     default: return "?";
   }
 }

@@ -23,6 +23,10 @@
  *   30   2   reserved, 0
  *   32   4   CRC-32 (IEEE) of bytes 0..31 and the payload
  *
+ * With RL_FLAG_AUTH, a 16-byte tag follows the payload (rumi_link_auth.h):
+ * the datagram is header + payload + tag. Version 2 added the tag and HELLO;
+ * a version 1 datagram is refused (RL_ERR_VERSION).
+ *
  * Portable C99, no allocation: the parser only reads the bytes it was given
  * and fills a caller's struct, so garbage of any length is rejected with a
  * code (it is fuzzed: rumi_link_fuzz.c). */
@@ -37,11 +41,15 @@ extern "C" {
 #endif
 
 #define RL_MAGIC 0x4C52u
-#define RL_VERSION 1u
+#define RL_VERSION 2u
 #define RL_HEADER_SIZE 36u
 /* 1500-byte MTU minus IPv4 (20) and UDP (8) headers: never IP-fragmented. */
 #define RL_MAX_DATAGRAM 1472u
-#define RL_MAX_PAYLOAD (RL_MAX_DATAGRAM - RL_HEADER_SIZE)
+#define RL_TAG_SIZE 16u
+#define RL_NONCE_SIZE 16u
+/* Room for the tag is kept whether or not a datagram carries one, so a frame
+ * is cut the same way on an authenticated and an insecure link. */
+#define RL_MAX_PAYLOAD (RL_MAX_DATAGRAM - RL_HEADER_SIZE - RL_TAG_SIZE)
 #define RL_FRAME_META_SIZE 16u
 #define RL_FRAGMENT_DATA_MAX (RL_MAX_PAYLOAD - RL_FRAME_META_SIZE)
 #define RL_MAX_FRAGMENTS 96u
@@ -58,10 +66,14 @@ enum rl_type {
   RL_HEARTBEAT = 5,  /* both ways: I am alive, and my state */
   RL_TIME_REQ = 6,   /* ground -> robot: clock sync request (t1) */
   RL_TIME_RESP = 7,  /* robot -> ground: t1 echoed, t2 receive, t3 send */
-  RL_NACK = 8        /* ground -> robot: fragments of a frame that never came */
+  RL_NACK = 8,       /* ground -> robot: fragments of a frame that never came */
+  RL_HELLO = 9       /* both ways: agree a session key (rumi_link_auth.h) */
 };
 
-enum rl_flag { RL_FLAG_RETRANSMIT = 1 };
+enum rl_flag {
+  RL_FLAG_RETRANSMIT = 1,
+  RL_FLAG_AUTH = 2  /* a tag follows the payload */
+};
 
 enum rl_format { RL_FORMAT_JPEG = 1, RL_FORMAT_GREY = 2 };
 
@@ -146,14 +158,21 @@ typedef struct rl_time {
   uint64_t t3;         /* robot clock: response sent (RESP only) */
 } rl_time;
 
+typedef struct rl_hello {
+  uint8_t role;        /* rl_role of the sender */
+  uint8_t nonce_robot[RL_NONCE_SIZE];
+  uint8_t nonce_ground[RL_NONCE_SIZE];  /* zero in the robot's HELLO */
+} rl_hello;
+
 typedef struct rl_nack {
   uint16_t count;      /* 0: the whole frame (none of it arrived) */
   uint16_t index[RL_NACK_MAX];
 } rl_nack;
 
-/* One datagram, parsed. FRAME's data points into the datagram. */
+/* One datagram, parsed. FRAME's data and the tag point into the datagram. */
 typedef struct rl_message {
   rl_header h;
+  const uint8_t* tag;  /* RL_TAG_SIZE bytes after the payload; NULL without RL_FLAG_AUTH */
   union {
     struct {
       rl_frame_meta meta;
@@ -169,6 +188,7 @@ typedef struct rl_message {
     rl_heartbeat heartbeat;
     rl_time time;
     rl_nack nack;
+    rl_hello hello;
   } u;
 } rl_message;
 
@@ -176,7 +196,8 @@ typedef struct rl_message {
 int rl_parse(const uint8_t* buf, size_t len, rl_message* out);
 
 /* Writes m (its h.payload_len is ignored and computed) into out; returns the
- * datagram's length, or 0 when cap is too small or m is not encodable. */
+ * datagram's length, or 0 when cap is too small or m is not encodable. With
+ * RL_FLAG_AUTH in m's flags the tag is not written: rl_seal appends it. */
 size_t rl_encode(const rl_message* m, uint8_t* out, size_t cap);
 
 const char* rl_error_string(int code);

@@ -1,4 +1,5 @@
 #include "rumi_link.h"
+#include "rumi_link_auth.h"
 
 #include <gtest/gtest.h>
 
@@ -78,6 +79,21 @@ std::map<std::string, Bytes> Samples() {
   s["nack"] = Encode(n);
   rl_message all = Header(RL_NACK, 43);
   s["nack_all"] = Encode(all);
+  rl_message hello = Header(RL_HELLO, 0);
+  hello.u.hello.role = RL_ROLE_ROBOT;
+  for (size_t i = 0; i < RL_NONCE_SIZE; ++i) hello.u.hello.nonce_robot[i] = static_cast<uint8_t>(i + 1);
+  s["hello"] = Encode(hello);
+  // An authenticated heartbeat (the tag of a fixed key): the fuzzer starts
+  // from tagged datagrams too.
+  rl_message ahb = Header(RL_HEARTBEAT, 0);
+  ahb.u.heartbeat = {RL_ROLE_GROUND, 1, 0, 0, 0, 0, 0, 0, 0};
+  ahb.h.flags = RL_FLAG_AUTH;
+  Bytes sealed(RL_MAX_DATAGRAM);
+  const size_t n0 = rl_encode(&ahb, sealed.data(), sealed.size());
+  uint8_t key[RL_KEY_SIZE];
+  std::memset(key, 0x5A, sizeof(key));  // the fuzz target's keyed robot's key
+  sealed.resize(rl_seal(key, sealed.data(), n0, sealed.size()));
+  s["heartbeat_auth"] = sealed;
   return s;
 }
 
@@ -123,9 +139,16 @@ TEST(RumiLink, EveryTypeRoundTrips) {
   ASSERT_EQ(rl_parse(s["nack"].data(), s["nack"].size(), &m), RL_OK);
   EXPECT_EQ(m.u.nack.count, 2);
   EXPECT_EQ(m.u.nack.index[1], 2);
+  ASSERT_EQ(rl_parse(s["hello"].data(), s["hello"].size(), &m), RL_OK);
+  EXPECT_EQ(m.u.hello.role, RL_ROLE_ROBOT);
+  EXPECT_EQ(m.u.hello.nonce_robot[15], 16);
+  EXPECT_EQ(m.u.hello.nonce_ground[0], 0);
+  EXPECT_EQ(m.tag, nullptr);
   for (auto& [name, bytes] : s) {
     ASSERT_EQ(rl_parse(bytes.data(), bytes.size(), &m), RL_OK) << name;
-    EXPECT_EQ(Encode(m), bytes) << name << ": parse then encode gives other bytes";
+    // (a tag is not the encoder's: rl_seal appends it)
+    EXPECT_EQ(Encode(m), Bytes(bytes.begin(), bytes.end() - (m.tag ? RL_TAG_SIZE : 0)))
+        << name << ": parse then encode gives other bytes";
     EXPECT_LE(bytes.size(), RL_MAX_DATAGRAM);
   }
 }
@@ -135,12 +158,22 @@ TEST(RumiLink, TruncatedAndCorruptedDatagramsAreRejected) {
   for (auto& [name, bytes] : Samples()) {
     for (size_t n = 0; n < bytes.size(); ++n)
       EXPECT_NE(rl_parse(bytes.data(), n, &m), RL_OK) << name << " cut to " << n;
-    // Every single-bit flip is caught (by the CRC if by nothing else).
+    // Every single-bit flip is caught (by the CRC if by nothing else; in
+    // the tag, which the CRC does not cover, by the tag's check).
+    ASSERT_EQ(rl_parse(bytes.data(), bytes.size(), &m), RL_OK);
+    const size_t tagged = m.tag ? bytes.size() - RL_TAG_SIZE : bytes.size();
+    uint8_t key[RL_KEY_SIZE];
+    std::memset(key, 0x5A, sizeof(key));
     for (size_t i = 0; i < bytes.size(); ++i) {
       for (int b = 0; b < 8; ++b) {
         Bytes x = bytes;
         x[i] ^= static_cast<uint8_t>(1 << b);
-        ASSERT_NE(rl_parse(x.data(), x.size(), &m), RL_OK) << name << " byte " << i << " bit " << b;
+        if (i < tagged) {
+          ASSERT_NE(rl_parse(x.data(), x.size(), &m), RL_OK) << name << " byte " << i << " bit " << b;
+        } else {
+          ASSERT_EQ(rl_parse(x.data(), x.size(), &m), RL_OK);
+          ASSERT_FALSE(rl_verify(key, x.data(), x.size(), &m)) << name << " tag byte " << i << " bit " << b;
+        }
       }
     }
     Bytes longer = bytes;
@@ -151,7 +184,7 @@ TEST(RumiLink, TruncatedAndCorruptedDatagramsAreRejected) {
   Bytes junk(64, 0xAB);
   EXPECT_EQ(rl_parse(junk.data(), junk.size(), &m), RL_ERR_MAGIC);
   Bytes v = Samples()["ack"];
-  v[2] = 2;
+  v[2] = 1;  // version 1 (no tag, no HELLO): refused
   EXPECT_EQ(rl_parse(v.data(), v.size(), &m), RL_ERR_VERSION);
   EXPECT_STREQ(rl_error_string(RL_ERR_CRC), "CRC mismatch (corrupted)");
 }
@@ -201,7 +234,7 @@ TEST(RumiLink, RandomBytesNeverParseAsValid) {
     Bytes b(rng() % 200);
     for (auto& x : b) x = static_cast<uint8_t>(rng());
     if (b.size() >= 4 && i % 2) {  // half of them with a valid magic/version/type
-      b[0] = 0x52, b[1] = 0x4C, b[2] = RL_VERSION, b[3] = static_cast<uint8_t>(1 + rng() % 8);
+      b[0] = 0x52, b[1] = 0x4C, b[2] = RL_VERSION, b[3] = static_cast<uint8_t>(1 + rng() % 9);
     }
     accepted += rl_parse(b.data(), b.size(), &m) == RL_OK;
   }
@@ -225,7 +258,7 @@ TEST(RumiLink, FuzzCorpusHoldsEveryType) {
     rl_message m;
     if (rl_parse(b.data(), b.size(), &m) == RL_OK) types.insert(m.h.type);
   }
-  EXPECT_EQ(types.size(), 8u);
+  EXPECT_EQ(types.size(), 9u);
 }
 
 }  // namespace

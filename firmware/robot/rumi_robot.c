@@ -25,9 +25,42 @@ static void header(rr_robot* r, rl_message* m, uint8_t type, uint32_t msg_id, ui
   m->h.time_us = t_us;
 }
 
-static void send_message(rr_robot* r, const rl_message* m) {
-  size_t n = rl_encode(m, r->buf, sizeof(r->buf));
+/* With a key every datagram is tagged: a HELLO with the robot's key, the
+ * rest with the session's (and nothing but HELLOs leaves before there is one). */
+static void send_message(rr_robot* r, rl_message* m) {
+  size_t n;
+  if (r->cfg.has_key) {
+    if (m->h.type != RL_HELLO && !r->session) return;
+    m->h.flags |= RL_FLAG_AUTH;
+  }
+  n = rl_encode(m, r->buf, sizeof(r->buf));
+  if (n && r->cfg.has_key)
+    n = rl_seal(m->h.type == RL_HELLO ? r->cfg.key : r->session_key, r->buf, n, sizeof(r->buf));
   if (n == 0 || r->hw.send(r->hw.ctx, r->buf, n) != 0) r->stats.send_failures++;
+}
+
+/* Asks the ground station for a session, with a nonce of this attempt. */
+static void send_hello(rr_robot* r, uint64_t t) {
+  rl_message m;
+  header(r, &m, RL_HELLO, 0, t);
+  memset(&m.u.hello, 0, sizeof(m.u.hello));
+  m.u.hello.role = RL_ROLE_ROBOT;
+  memcpy(m.u.hello.nonce_robot, r->nonce, RL_NONCE_SIZE);
+  send_message(r, &m);
+  r->last_hello_us = t;
+}
+
+/* Ends a session (or starts without one): a new nonce, HELLO at the next poll. */
+static void new_session_request(rr_robot* r) {
+  r->session = 0;
+  memset(r->session_key, 0, sizeof(r->session_key));
+  if (!r->hw.random || r->hw.random(r->hw.ctx, r->nonce, RL_NONCE_SIZE) != 0) {
+    /* No randomness: no session can be trusted; stay unauthenticated (and
+     * therefore deaf) rather than reuse a nonce. */
+    memset(r->nonce, 0, sizeof(r->nonce));
+    r->stats.send_failures++;
+  }
+  r->last_hello_us = 0;
 }
 
 /* Tells the servos when the walking state changes (and only then). */
@@ -56,7 +89,10 @@ void rr_init(rr_robot* r, const rr_hw* hw, const rr_config* cfg) {
   r->failsafe = 1;
   r->moving = -1; /* unknown: the first update tells the servos */
   update_motion(r);
+  if (r->cfg.has_key) new_session_request(r);
 }
+
+int rr_authenticated(const rr_robot* r) { return r->cfg.has_key && r->session; }
 
 int rr_moving(const rr_robot* r) { return !r->halted && !r->failsafe; }
 
@@ -91,6 +127,10 @@ int64_t rr_send_frame(rr_robot* r, const uint8_t* data, size_t len, uint16_t wid
   uint16_t count, i;
   if (len == 0 || len > RR_FRAME_CAP || len > RL_MAX_FRAME_BYTES || width == 0 || height == 0) {
     r->stats.frames_skipped++;
+    return -1;
+  }
+  if (r->cfg.has_key && !r->session) {
+    r->stats.frames_no_session++;
     return -1;
   }
   s = &r->slot[r->next_slot];
@@ -230,12 +270,67 @@ static void on_nack(rr_robot* r, const rl_message* in) {
   r->stats.nacks_too_old++;
 }
 
+/* A ground station's answer to our HELLO: the session starts. */
+static void on_hello(rr_robot* r, const rl_message* in, const uint8_t* data, size_t len) {
+  if (in->u.hello.role != RL_ROLE_GROUND || r->session ||
+      memcmp(in->u.hello.nonce_robot, r->nonce, RL_NONCE_SIZE) != 0) {
+    r->stats.unauthenticated++; /* not for this attempt (an old answer or a replay) */
+    return;
+  }
+  if (!rl_verify(r->cfg.key, data, len, in)) {
+    r->stats.auth_failures++;
+    return;
+  }
+  if (rl_session_key(r->cfg.key, r->nonce, in->u.hello.nonce_ground, r->session_key) != 0) {
+    r->stats.auth_failures++;
+    return;
+  }
+  r->session = 1;
+  memset(&r->replay, 0, sizeof(r->replay));
+  r->state_seq_valid = 0;
+  r->last_control_id = 0;
+  r->stats.sessions++;
+}
+
+/* With a key: whether this datagram comes from the session's ground station
+ * and is new (its tag verified before its sequence number moves the window). */
+static int authentic(rr_robot* r, const rl_message* in, const uint8_t* data, size_t len) {
+  if (!in->tag || !r->session) {
+    r->stats.unauthenticated++;
+    return 0;
+  }
+  if (!rl_verify(r->session_key, data, len, in)) {
+    r->stats.auth_failures++;
+    return 0;
+  }
+  if (rl_replay_accept(&r->replay, in->h.seq) != RL_REPLAY_OK) {
+    r->stats.replays++;
+    return 0;
+  }
+  return 1;
+}
+
 void rr_on_datagram(rr_robot* r, const uint8_t* data, size_t len) {
   rl_message in;
   uint64_t t2 = now(r);
   if (rl_parse(data, len, &in) != RL_OK || in.h.robot_id != r->cfg.robot_id) {
     r->stats.bad_datagrams++;
     return;
+  }
+  if (r->cfg.has_key) {
+    if (in.h.type == RL_HELLO) {
+      if (!in.tag) {
+        r->stats.unauthenticated++;
+        return;
+      }
+      on_hello(r, &in, data, len);
+      if (!r->session) return;
+      /* A verified answer is the ground station heard: fall through to end
+       * the fail-safe, and say our state under the new key at once. */
+      r->last_heartbeat_us = 0;
+    } else if (!authentic(r, &in, data, len)) {
+      return;
+    }
   }
   r->last_heard_us = t2;
   r->heard = 1;
@@ -283,7 +378,13 @@ void rr_poll(rr_robot* r) {
     if (r->moving == 1) r->stats.failsafe_stops++;
     update_motion(r);
     send_heartbeat(r, t); /* say so now, not at the next period */
+    /* The ground station may have restarted: it must prove itself anew. */
+    if (r->cfg.has_key) new_session_request(r);
   }
-  if (t - r->last_heartbeat_us >= (uint64_t)r->cfg.heartbeat_ms * 1000u) send_heartbeat(r, t);
+  if (r->cfg.has_key && !r->session) {
+    if (!r->last_hello_us || t - r->last_hello_us >= (uint64_t)r->cfg.heartbeat_ms * 1000u) send_hello(r, t);
+  } else if (t - r->last_heartbeat_us >= (uint64_t)r->cfg.heartbeat_ms * 1000u) {
+    send_heartbeat(r, t);
+  }
   if (r->imu_count && t - r->imu[0].t_us >= (uint64_t)r->cfg.imu_batch_ms * 1000u) flush_imu(r);
 }

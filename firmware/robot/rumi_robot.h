@@ -5,6 +5,13 @@
  * until it first hears the ground station, and stops walking when it hears
  * nothing for failsafe_ms).
  *
+ * With a key (rr_config.has_key) the robot speaks only authenticated: it
+ * sends HELLOs until the ground station answers one, then tags every datagram
+ * with the session key and accepts only datagrams tagged with it, each
+ * sequence number once (rumi_link_auth.h). A fail-safe ends the session; the
+ * next ground station must say HELLO again. Without a key it is the insecure
+ * lab link: anything that parses is obeyed.
+ *
  * The hardware is behind rr_hw (a datagram sender, a clock, the servos, the
  * camera settings), so the same code runs in the ESP32-CAM firmware
  * (firmware/esp32cam), in the host tests, and in `rumi robot-sim`.
@@ -18,6 +25,7 @@
 #include <stdint.h>
 
 #include "rumi_link.h"
+#include "rumi_link_auth.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -42,6 +50,8 @@ typedef struct rr_hw {
   int (*set_camera)(void* ctx, int width, int height, int quality, int fps_milli);
   /* Wi-Fi signal strength, dBm (0: unknown); sent in every heartbeat. NULL: unknown. */
   int (*rssi_dbm)(void* ctx);
+  /* n unpredictable bytes (the HELLO nonce); 0 on success. Needed with a key. */
+  int (*random)(void* ctx, uint8_t* out, size_t n);
 } rr_hw;
 
 typedef struct rr_config {
@@ -52,6 +62,8 @@ typedef struct rr_config {
   uint32_t imu_batch_ms;   /* or send once the oldest sample is this old */
   int gait;                /* gait at start */
   int start_halted;        /* stand still until the ground station says resume */
+  int has_key;             /* 1: authenticated link with key; 0: insecure */
+  uint8_t key[RL_KEY_SIZE];
 } rr_config;
 
 void rr_config_default(rr_config* c);
@@ -67,6 +79,11 @@ typedef struct rr_stats {
   uint32_t controls;            /* applied (duplicates only acked) */
   uint32_t bad_datagrams;       /* failed rl_parse */
   uint32_t failsafe_stops;
+  uint32_t unauthenticated;     /* no tag, or no session yet: ignored */
+  uint32_t auth_failures;       /* a tag that the key did not make */
+  uint32_t replays;             /* a sequence number seen before, or a jump */
+  uint32_t sessions;            /* HELLOs answered: sessions started */
+  uint32_t frames_no_session;   /* frames not sent: no session yet */
 } rr_stats;
 
 typedef struct rr_frame_slot {
@@ -100,6 +117,11 @@ typedef struct rr_robot {
   int state_seq_valid;
   uint64_t start_us, last_heard_us, last_heartbeat_us;
   int heard;            /* anything heard since start */
+  int session;          /* with a key: a session key is agreed */
+  uint8_t nonce[RL_NONCE_SIZE];
+  uint8_t session_key[RL_KEY_SIZE];
+  rl_replay replay;     /* the ground station's sequence numbers in this session */
+  uint64_t last_hello_us;
   uint8_t buf[RL_MAX_DATAGRAM];
 } rr_robot;
 
@@ -121,6 +143,9 @@ void rr_on_datagram(rr_robot* r, const uint8_t* data, size_t len);
 void rr_poll(rr_robot* r);
 
 /* Whether the robot walks: not halted and not in fail-safe. */
+/* With a key: whether a session with the ground station is established. */
+int rr_authenticated(const rr_robot* r);
+
 int rr_moving(const rr_robot* r);
 
 #ifdef __cplusplus

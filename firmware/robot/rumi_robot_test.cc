@@ -27,8 +27,15 @@ struct FakeHw {
     return h->camera_fails ? -1 : 0;
   }
   static int Rssi(void* c) { return static_cast<FakeHw*>(c)->rssi; }
+  // Deterministic "randomness": a counter, so every nonce differs.
+  static int Random(void* c, uint8_t* out, size_t n) {
+    auto* h = static_cast<FakeHw*>(c);
+    for (size_t i = 0; i < n; ++i) out[i] = static_cast<uint8_t>(h->random_counter++ * 37 + i);
+    return 0;
+  }
   int rssi = -61;
-  rr_hw Hw() { return {this, Send, Now, Motion, Camera, Rssi}; }
+  unsigned random_counter = 1;
+  rr_hw Hw() { return {this, Send, Now, Motion, Camera, Rssi, Random}; }
 
   std::vector<rl_message> Parsed(int type) const {
     std::vector<rl_message> out;
@@ -314,6 +321,145 @@ TEST_F(RobotTest, GarbageAndOtherRobotsAreCountedAndIgnored) {
   EXPECT_EQ(robot_->stats.bad_datagrams, 2u);
   EXPECT_TRUE(rr_moving(robot_.get()));
   EXPECT_TRUE(hw_.Parsed(RL_ACK).empty());
+}
+
+// ---- the authenticated link ------------------------------------------------
+
+class KeyedRobotTest : public RobotTest {
+ protected:
+  void SetUp() override {
+    for (size_t i = 0; i < RL_KEY_SIZE; ++i) key_[i] = static_cast<uint8_t>(i * 11 + 3);
+    robot_ = std::make_unique<rr_robot>();
+    rr_config c;
+    rr_config_default(&c);
+    c.robot_id = 5;
+    c.has_key = 1;
+    std::memcpy(c.key, key_, RL_KEY_SIZE);
+    rr_hw hw = hw_.Hw();
+    rr_init(robot_.get(), &hw, &c);
+    rr_poll(robot_.get());  // the first HELLO
+  }
+  // Encodes m as the ground station would, tagged with key (none: untagged).
+  std::vector<uint8_t> Datagram(rl_message m, const uint8_t* key, uint32_t seq) {
+    m.h.robot_id = 5;
+    m.h.seq = seq;
+    if (key) m.h.flags |= RL_FLAG_AUTH;
+    std::vector<uint8_t> buf(RL_MAX_DATAGRAM);
+    size_t n = rl_encode(&m, buf.data(), buf.size());
+    EXPECT_GT(n, 0u);
+    if (key) n = rl_seal(key, buf.data(), n, buf.size());
+    EXPECT_GT(n, 0u);
+    buf.resize(n);
+    return buf;
+  }
+  void Deliver(const std::vector<uint8_t>& d) { rr_on_datagram(robot_.get(), d.data(), d.size()); }
+  // Answers the robot's newest HELLO as the real ground station; returns the bytes.
+  std::vector<uint8_t> AnswerHello(uint8_t ground_nonce_byte = 0x77) {
+    const std::vector<rl_message> hellos = hw_.Parsed(RL_HELLO);
+    EXPECT_FALSE(hellos.empty());
+    rl_message a = Msg(RL_HELLO);
+    a.u.hello.role = RL_ROLE_GROUND;
+    std::memcpy(a.u.hello.nonce_robot, hellos.back().u.hello.nonce_robot, RL_NONCE_SIZE);
+    std::memset(a.u.hello.nonce_ground, ground_nonce_byte, RL_NONCE_SIZE);
+    EXPECT_EQ(rl_session_key(key_, a.u.hello.nonce_robot, a.u.hello.nonce_ground, session_), 0);
+    std::vector<uint8_t> d = Datagram(a, key_, ground_seq_++);
+    Deliver(d);
+    return d;
+  }
+  // Every datagram the robot sent carries a tag that key (or the session's) made.
+  void ExpectAllTagged() {
+    for (auto& d : hw_.sent) {
+      rl_message m;
+      ASSERT_EQ(rl_parse(d.data(), d.size(), &m), RL_OK);
+      ASSERT_NE(m.tag, nullptr) << rl_type_name(m.h.type);
+      EXPECT_TRUE(rl_verify(m.h.type == RL_HELLO ? key_ : session_, d.data(), d.size(), &m)) << rl_type_name(m.h.type);
+    }
+  }
+  uint8_t key_[RL_KEY_SIZE];
+  uint8_t session_[RL_KEY_SIZE] = {};
+};
+
+TEST_F(KeyedRobotTest, SaysHelloAndNothingElseBeforeASession) {
+  static uint8_t img[3000];
+  EXPECT_EQ(rr_send_frame(robot_.get(), img, sizeof(img), 320, 240, RL_FORMAT_JPEG, 12, 5), -1);
+  EXPECT_EQ(robot_->stats.frames_no_session, 1u);
+  hw_.now += 600000;
+  rr_poll(robot_.get());
+  EXPECT_EQ(hw_.Parsed(RL_HELLO).size(), 2u);
+  EXPECT_EQ(hw_.sent.size(), 2u);  // no heartbeat, no frame
+  ExpectAllTagged();
+  EXPECT_FALSE(rr_moving(robot_.get()));
+  EXPECT_FALSE(rr_authenticated(robot_.get()));
+}
+
+TEST_F(KeyedRobotTest, AnAnsweredHelloStartsASessionAndEverythingIsTagged) {
+  AnswerHello();
+  EXPECT_TRUE(rr_authenticated(robot_.get()));
+  EXPECT_EQ(robot_->stats.sessions, 1u);
+  EXPECT_TRUE(rr_moving(robot_.get()));  // the station is heard
+  static uint8_t img[3000];
+  EXPECT_GE(rr_send_frame(robot_.get(), img, sizeof(img), 320, 240, RL_FORMAT_JPEG, 12, 5), 0);
+  rr_poll(robot_.get());
+  EXPECT_FALSE(hw_.Parsed(RL_HEARTBEAT).empty());
+  EXPECT_EQ(hw_.Parsed(RL_FRAME).size(), 3u);
+  ExpectAllTagged();
+}
+
+TEST_F(KeyedRobotTest, SpoofedControlsAreRefused) {
+  AnswerHello();
+  Deliver(Datagram(GroundHeartbeat(0), session_, ground_seq_++));
+  ASSERT_TRUE(rr_moving(robot_.get()));
+  uint8_t wrong[RL_KEY_SIZE];
+  std::memset(wrong, 0x42, sizeof(wrong));
+  Deliver(Datagram(Control(7, RL_CMD_HALT), nullptr, ground_seq_ + 1000));  // no tag, a huge sequence number
+  EXPECT_EQ(robot_->stats.unauthenticated, 1u);
+  Deliver(Datagram(Control(8, RL_CMD_HALT), wrong, ground_seq_ + 1));  // a tag of another key
+  Deliver(Datagram(Control(9, RL_CMD_HALT), key_, ground_seq_ + 1));   // the robot's key, not the session's
+  EXPECT_EQ(robot_->stats.auth_failures, 2u);
+  Deliver(Datagram(Control(10, RL_CMD_HALT), session_, ground_seq_ + RL_REPLAY_MAX_JUMP + 1));  // a jump
+  EXPECT_EQ(robot_->stats.replays, 1u);
+  EXPECT_TRUE(rr_moving(robot_.get()));
+  EXPECT_TRUE(hw_.Parsed(RL_ACK).empty());
+  EXPECT_EQ(robot_->stats.controls, 0u);
+  // The real station's next control still works: nothing above moved its window.
+  Deliver(Datagram(Control(11, RL_CMD_HALT), session_, ground_seq_++));
+  EXPECT_FALSE(rr_moving(robot_.get()));
+  EXPECT_EQ(hw_.Parsed(RL_ACK).size(), 1u);
+}
+
+TEST_F(KeyedRobotTest, AReplayedControlIsRefused) {
+  AnswerHello();
+  const std::vector<uint8_t> halt = Datagram(Control(20, RL_CMD_HALT), session_, ground_seq_++);
+  Deliver(halt);
+  EXPECT_FALSE(rr_moving(robot_.get()));
+  Deliver(Datagram(Control(21, RL_CMD_RESUME), session_, ground_seq_++));
+  EXPECT_TRUE(rr_moving(robot_.get()));
+  Deliver(halt);  // captured and sent again
+  EXPECT_TRUE(rr_moving(robot_.get()));
+  EXPECT_EQ(robot_->stats.replays, 1u);
+  // Reordered (older, never seen) datagrams within the window still count.
+  const uint32_t later = ground_seq_ + 5;
+  Deliver(Datagram(GroundHeartbeat(0), session_, later));
+  Deliver(Datagram(GroundHeartbeat(0), session_, later - 2));
+  EXPECT_EQ(robot_->stats.replays, 1u);
+}
+
+TEST_F(KeyedRobotTest, AFailsafeEndsTheSessionAndOldAnswersDoNotRestoreIt) {
+  const std::vector<uint8_t> old_answer = AnswerHello(0x11);
+  const std::vector<uint8_t> old_control = Datagram(Control(30, RL_CMD_RESUME), session_, ground_seq_++);
+  hw_.now += 3000000;  // nothing heard for longer than failsafe_ms
+  rr_poll(robot_.get());
+  EXPECT_FALSE(rr_authenticated(robot_.get()));
+  EXPECT_FALSE(rr_moving(robot_.get()));
+  Deliver(old_answer);  // for the old nonce
+  Deliver(old_control);
+  EXPECT_FALSE(rr_authenticated(robot_.get()));
+  EXPECT_FALSE(rr_moving(robot_.get()));
+  EXPECT_EQ(robot_->stats.unauthenticated, 2u);
+  AnswerHello(0x22);  // the (restarted) station answers the new HELLO
+  EXPECT_TRUE(rr_authenticated(robot_.get()));
+  EXPECT_EQ(robot_->stats.sessions, 2u);
+  EXPECT_TRUE(rr_moving(robot_.get()));
 }
 
 }  // namespace

@@ -22,6 +22,8 @@ struct SnapshotLink {
   int64_t frames_delivered = 0, frames_dropped = 0, fragments_recovered = 0;
   double latency_p50_ms = 0, latency_p95_ms = 0, latency_max_ms = 0, clock_offset_ms = 0, asked_fps = 0;
   int64_t imu_samples = 0, imu_gaps = 0, gyro_predicted = 0, gyro_bridged = 0;
+  bool authenticated = false, insecure = false, halt_alarm = false;
+  int64_t auth_failures = 0;
 };
 
 // SnapshotLink and the DDS type rumi_dds_LinkStatus name their fields alike:
@@ -46,6 +48,10 @@ void CopyLinkFields(const From& f, To* t) {
   t->imu_gaps = f.imu_gaps;
   t->gyro_predicted = f.gyro_predicted;
   t->gyro_bridged = f.gyro_bridged;
+  t->authenticated = f.authenticated;
+  t->insecure = f.insecure;
+  t->auth_failures = f.auth_failures;
+  t->halt_alarm = f.halt_alarm;
 }
 
 struct SnapshotStatus {

@@ -19,17 +19,34 @@ void FrameReassembler::Add(const rl_message& m, int64_t now_us) {
     Reset(id);
   } else {
     const int32_t ahead = static_cast<int32_t>(id - next_);  // serial arithmetic: ids wrap
-    if (ahead < 0) {
-      if (static_cast<uint32_t>(-ahead) <= o_.max_gap * 4) {
-        ++stats_.late;
+    const bool far = ahead < 0 ? static_cast<uint32_t>(-ahead) > o_.max_gap * 4
+                               : static_cast<uint32_t>(ahead) > o_.max_gap;
+    if (!far && ahead < 0) {
+      ++stats_.late;
+      return;
+    }
+    if (far) {
+      // A restarted robot (ids from 0 again) or a long outage: resync, but
+      // only once resync_fragments fragments in a row agree on the new place;
+      // a stray id (garbage on an insecure link) is counted and dropped
+      // before anything is allocated for it.
+      if (candidate_hits_ > 0 && id - candidate_min_ <= o_.max_gap) {
+        ++candidate_hits_;
+      } else if (candidate_hits_ > 0 && candidate_min_ - id <= o_.max_gap) {
+        ++candidate_hits_;
+        candidate_min_ = id;
+      } else {
+        candidate_min_ = id;
+        candidate_hits_ = 1;
+      }
+      if (candidate_hits_ < o_.resync_fragments) {
+        ++stats_.out_of_window;
         return;
       }
-      ++stats_.resyncs;  // far behind: the robot restarted
-      Reset(id);
-    } else if (static_cast<uint32_t>(ahead) > o_.max_gap) {
       ++stats_.resyncs;
-      Reset(id);
+      Reset(candidate_min_);
     }
+    candidate_hits_ = 0;
   }
   // Frames skipped over exist too: due now, NACKed as a whole.
   for (uint32_t k = next_; k != id; ++k)
@@ -90,10 +107,16 @@ std::vector<LinkFrame> FrameReassembler::Poll(int64_t now_us, std::vector<NackRe
     ++next_;
   }
   if (nacks) {
+    if (now_us - nack_second_us_ >= 1000000) nack_second_us_ = now_us, nacks_this_second_ = 0;
     for (auto& [id, p] : pending_) {
       if (p.complete() || now_us - p.due_us < o_.nack_delay_us) continue;
       if (p.last_nack_us && now_us - p.last_nack_us < o_.nack_interval_us) continue;
       if (now_us - p.due_us >= o_.deadline_us) continue;
+      if (nacks_this_second_ >= o_.max_nacks_per_s) {
+        ++stats_.nacks_suppressed;  // a NACK storm helps nobody on a link that is already losing
+        continue;
+      }
+      ++nacks_this_second_;
       NackRequest r;
       r.frame_id = id;
       for (size_t i = 0; i < p.have.size() && r.missing.size() < RL_NACK_MAX; ++i)

@@ -15,7 +15,10 @@
 //    one's deadline: a lost fragment delays later frames by a bounded time,
 //    never blocks them.
 //  - A robot that restarts (frame ids from 0 again) or a jump of more than
-//    max_gap ids resets the order (counted as a resync).
+//    max_gap ids resets the order (counted as a resync) once resync_fragments
+//    fragments in a row agree on it; a lone far id is dropped (out_of_window).
+//  - At most max_nacks_per_s NACKs a second, at most one per frame every
+//    nack_interval: bounded whatever arrives.
 #include <cstdint>
 #include <map>
 #include <vector>
@@ -29,6 +32,8 @@ struct FrameReassemblerOptions {
   int64_t nack_delay_us = 60000;     // first NACK this long after the frame's first fragment
   int64_t nack_interval_us = 100000; // then again every this long
   uint32_t max_gap = 64;             // frame-id jump beyond which the order is reset
+  int resync_fragments = 3;          // ... by this many fragments in a row agreeing on it
+  int max_nacks_per_s = 100;         // NACKs beyond this in one second are not sent
 };
 
 struct LinkFrame {
@@ -59,6 +64,8 @@ struct ReassemblerStats {
   uint64_t inconsistent = 0;       // disagreed with the frame's other fragments
   uint64_t nacks = 0;
   uint64_t resyncs = 0;
+  uint64_t out_of_window = 0;      // far outside the window, not (yet) a resync: dropped
+  uint64_t nacks_suppressed = 0;   // beyond max_nacks_per_s
 };
 
 class FrameReassembler {
@@ -90,6 +97,10 @@ class FrameReassembler {
   bool started_ = false;
   uint32_t next_ = 0;             // the next frame id to hand on
   std::map<uint32_t, Partial> pending_;
+  uint32_t candidate_min_ = 0;    // a resync being confirmed: its lowest id
+  int candidate_hits_ = 0;
+  int64_t nack_second_us_ = 0;
+  int nacks_this_second_ = 0;
 };
 
 }  // namespace rumi

@@ -67,9 +67,23 @@ nlohmann::json LinkStats::ToJson() const {
       {"fragments_inconsistent", frames.inconsistent},
       {"nacks", frames.nacks},
       {"resyncs", frames.resyncs},
+      {"out_of_window", frames.out_of_window},
+      {"nacks_suppressed", frames.nacks_suppressed},
       {"datagrams", datagrams},
       {"bad_datagrams", bad_datagrams},
       {"other_robot", other_robot},
+      {"auth",
+       {{"insecure", insecure},
+        {"authenticated", authenticated},
+        {"sessions", sessions},
+        {"unauthenticated", unauthenticated},
+        {"failures", auth_failures},
+        {"replays", replays},
+        {"wrong_source", wrong_source},
+        {"hellos_dropped", hellos_dropped}}},
+      {"halt_alarm", halt_alarm},
+      {"halt_alarm_s", halt_alarm_s},
+      {"halt_alarms", halt_alarms},
       {"imu_samples", imu_samples},
       {"imu_gaps", imu_gaps},
       {"controls_sent", controls_sent},
@@ -95,6 +109,17 @@ LinkEndpoint::LinkEndpoint(const LinkOptions& o)
       rate_(o.rate_control, o.frame_deadline_ms) {
   std::string why;
   if (!o_.Check(&why)) throw std::runtime_error("link options: " + why);
+  if (!o_.Keyed())
+    throw std::runtime_error(
+        "link: set key_file (a key from `rumi link keygen`) or, for an unauthenticated lab link, insecure: true");
+  if (!o_.key_file.empty()) {
+    if (!LoadLinkKey(o_.key_file, &key_, &why)) throw std::runtime_error("link.key_file: " + why);
+    secure_ = true;
+  } else {
+    spdlog::warn("link: INSECURE (link.insecure: true): datagrams are not authenticated; anyone on the "
+                 "network can halt, steer or impersonate the robot. Make a key with `rumi link keygen`.");
+  }
+  stats_.insecure = !secure_;
   sockaddr_storage addr{};
   socklen_t len = 0;
   if (!Resolve(o_.bind, &addr, &len, &why)) throw std::runtime_error("link.bind: " + why);
@@ -159,7 +184,7 @@ void LinkEndpoint::Run() {
         const ssize_t n =
             recvfrom(fd_, buf.data(), buf.size(), MSG_DONTWAIT, reinterpret_cast<sockaddr*>(&from), &flen);
         if (n < 0) break;
-        if (!have_robot_addr_ && o_.robot.empty()) {
+        if (!secure_ && !have_robot_addr_ && o_.robot.empty()) {
           rl_message m;
           if (rl_parse(buf.data(), static_cast<size_t>(n), &m) == RL_OK && m.h.robot_id == o_.robot_id) {
             std::memcpy(robot_addr_, &from, flen);
@@ -175,20 +200,28 @@ void LinkEndpoint::Run() {
                          ntohs(reinterpret_cast<sockaddr_in*>(&from)->sin_port));
           }
         }
-        OnDatagram(buf.data(), static_cast<size_t>(n), LinkNowUs());
+        OnDatagram(buf.data(), static_cast<size_t>(n), LinkNowUs(), &from, flen);
       }
     }
     Timers(now);
   }
 }
 
-void LinkEndpoint::Send(rl_message* m) {
-  if (!have_robot_addr_) return;
+size_t LinkEndpoint::Seal(rl_message* m, const uint8_t* key, uint8_t* out, size_t cap) {
   m->h.robot_id = static_cast<uint16_t>(o_.robot_id);
   m->h.seq = seq_++;
   if (!m->h.time_us) m->h.time_us = static_cast<uint64_t>(LinkNowUs());
+  if (key) m->h.flags |= RL_FLAG_AUTH;
+  const size_t n = rl_encode(m, out, cap);
+  return n && key ? rl_seal(key, out, n, cap) : n;
+}
+
+void LinkEndpoint::Send(rl_message* m) {
+  // Authenticated: nothing goes out before a session (the robot would not
+  // listen), and only to the address that session was made from.
+  if (!have_robot_addr_ || (secure_ && !have_session_)) return;
   uint8_t out[RL_MAX_DATAGRAM];
-  const size_t n = rl_encode(m, out, sizeof(out));
+  const size_t n = Seal(m, secure_ ? session_.key.data() : nullptr, out, sizeof(out));
   if (n == 0 || sendto(fd_, out, n, 0, reinterpret_cast<sockaddr*>(robot_addr_), robot_addr_len_) < 0) {
     std::lock_guard<std::mutex> l(mu_);
     ++stats_.send_failures;
@@ -204,7 +237,119 @@ static rl_message Blank(uint8_t type, uint32_t id) {
   return m;
 }
 
-void LinkEndpoint::OnDatagram(const uint8_t* data, size_t len, int64_t now) {
+namespace {
+
+std::string AddrText(const void* from) {
+  const auto* a = static_cast<const sockaddr_in*>(from);
+  char host[64] = "?";
+  inet_ntop(AF_INET, &a->sin_addr, host, sizeof(host));
+  return std::string(host) + ":" + std::to_string(ntohs(a->sin_port));
+}
+
+bool SameAddr(const void* a, unsigned alen, const void* b, unsigned blen) {
+  const auto* x = static_cast<const sockaddr_in*>(a);
+  const auto* y = static_cast<const sockaddr_in*>(b);
+  return alen >= sizeof(sockaddr_in) && blen >= sizeof(sockaddr_in) && x->sin_family == y->sin_family &&
+         x->sin_port == y->sin_port && x->sin_addr.s_addr == y->sin_addr.s_addr;
+}
+
+}  // namespace
+
+// A robot asks for a session: answer with a nonce of ours under its key. The
+// answer proves nothing to us yet (a HELLO can be replayed); the session
+// counts only once a datagram under the derived key comes back. Answers are
+// rate-limited and the pending sessions few, so HELLOs cost no more than that.
+void LinkEndpoint::OnHello(const rl_message& m, const uint8_t* data, size_t len, const void* from,
+                           unsigned from_len, int64_t now) {
+  if (m.u.hello.role != RL_ROLE_ROBOT) {
+    ++stats_.unauthenticated;
+    return;
+  }
+  if (!rl_verify(key_.data(), data, len, &m)) {
+    if (stats_.auth_failures++ % 1000 == 0)
+      spdlog::warn("link: HELLO from {} with a wrong tag: not our robot's key ({} failures so far)",
+                   AddrText(from), stats_.auth_failures);
+    return;
+  }
+  if (now - hello_second_us_ >= 1000000) hello_second_us_ = now, hellos_this_second_ = 0;
+  if (++hellos_this_second_ > 20) {
+    ++stats_.hellos_dropped;
+    return;
+  }
+  const Session* s = nullptr;
+  if (have_session_ && std::memcmp(session_.nonce_robot, m.u.hello.nonce_robot, RL_NONCE_SIZE) == 0) s = &session_;
+  for (const Session& p : pending_)
+    if (std::memcmp(p.nonce_robot, m.u.hello.nonce_robot, RL_NONCE_SIZE) == 0) s = &p;
+  if (!s) {
+    Session p;
+    std::memcpy(p.nonce_robot, m.u.hello.nonce_robot, RL_NONCE_SIZE);
+    if (!RandomBytes(p.nonce_ground, RL_NONCE_SIZE) ||
+        rl_session_key(key_.data(), p.nonce_robot, p.nonce_ground, p.key.data()) != 0) {
+      spdlog::error("link: no random bytes for a session nonce");
+      return;
+    }
+    p.created_us = now;
+    if (pending_.size() >= 4) pending_.erase(pending_.begin());
+    pending_.push_back(p);
+    s = &pending_.back();
+  }
+  rl_message a = Blank(RL_HELLO, 0);
+  a.u.hello.role = RL_ROLE_GROUND;
+  std::memcpy(a.u.hello.nonce_robot, s->nonce_robot, RL_NONCE_SIZE);
+  std::memcpy(a.u.hello.nonce_ground, s->nonce_ground, RL_NONCE_SIZE);
+  uint8_t out[RL_MAX_DATAGRAM];
+  const size_t n = Seal(&a, key_.data(), out, sizeof(out));
+  if (n == 0 || sendto(fd_, out, n, 0, static_cast<const sockaddr*>(from), from_len) < 0) ++stats_.send_failures;
+}
+
+// Whether a parsed datagram is the session's robot's, new, and from its
+// address; the first one under a pending session's key makes that session
+// current and pins the robot's address.
+bool LinkEndpoint::Authentic(const rl_message& m, const uint8_t* data, size_t len, const void* from,
+                             unsigned from_len) {
+  Session* s = nullptr;
+  if (have_session_ && rl_verify(session_.key.data(), data, len, &m)) {
+    if (!SameAddr(from, from_len, robot_addr_, robot_addr_len_)) {
+      ++stats_.wrong_source;
+      return false;
+    }
+    s = &session_;
+  } else {
+    for (auto it = pending_.begin(); it != pending_.end(); ++it) {
+      if (!rl_verify(it->key.data(), data, len, &m)) continue;
+      if (!o_.robot.empty() && !SameAddr(from, from_len, robot_addr_, robot_addr_len_)) {
+        ++stats_.wrong_source;  // link.robot fixes the robot's address
+        return false;
+      }
+      session_ = *it;
+      pending_.erase(it);
+      s = &session_;
+      have_session_ = true;
+      std::memcpy(robot_addr_, from, from_len);
+      robot_addr_len_ = from_len;
+      have_robot_addr_ = true;
+      ++stats_.sessions;
+      stats_.authenticated = true;
+      last_heartbeat_us_ = 0;  // say what we want of it now
+      spdlog::info("link: robot {} authenticated at {} (session {})", o_.robot_id, AddrText(from),
+                   stats_.sessions);
+      break;
+    }
+  }
+  if (!s) {
+    if (stats_.auth_failures++ % 1000 == 0)
+      spdlog::warn("link: datagram from {} with a wrong tag: spoofed, corrupted or an old session ({} so far)",
+                   AddrText(from), stats_.auth_failures);
+    return false;
+  }
+  if (rl_replay_accept(&s->replay, m.h.seq) != RL_REPLAY_OK) {
+    ++stats_.replays;
+    return false;
+  }
+  return true;
+}
+
+void LinkEndpoint::OnDatagram(const uint8_t* data, size_t len, int64_t now, const void* from, unsigned from_len) {
   rl_message m;
   const int rc = rl_parse(data, len, &m);
   std::unique_lock<std::mutex> l(mu_);
@@ -216,6 +361,24 @@ void LinkEndpoint::OnDatagram(const uint8_t* data, size_t len, int64_t now) {
   }
   if (m.h.robot_id != o_.robot_id) {
     ++stats_.other_robot;
+    return;
+  }
+  if (secure_) {
+    if (!m.tag) {
+      if (stats_.unauthenticated++ % 1000 == 0)
+        spdlog::warn("link: unauthenticated {} from {}: the robot has no key, or someone else is sending "
+                     "({} so far; link.key_file)", rl_type_name(m.h.type), AddrText(from), stats_.unauthenticated);
+      return;
+    }
+    if (m.h.type == RL_HELLO) {
+      OnHello(m, data, len, from, from_len, now);
+      return;
+    }
+    if (!Authentic(m, data, len, from, from_len)) return;
+  } else if (m.h.type == RL_HELLO) {
+    if (stats_.unauthenticated++ % 1000 == 0)
+      spdlog::warn("link: the robot asks for an authenticated session but link.insecure is set: give the "
+                   "ground station its key (link.key_file)");
     return;
   }
   last_heard_us_ = now;
@@ -311,6 +474,7 @@ void LinkEndpoint::Timers(int64_t now) {
       }
     }
     if (!done.empty()) cv_.notify_all();
+    HaltAlarm(now);
     if (const double fps = rate_.Poll(now); fps > 0) {
       QueueControl(RL_CMD_FRAME_RATE, static_cast<int32_t>(std::lround(fps * 1000)));
       stats_.rate_asked_fps = fps;
@@ -370,6 +534,32 @@ void LinkEndpoint::Timers(int64_t now) {
       m.u.time.t1 = m.h.time_us = static_cast<uint64_t>(LinkNowUs());
     }
     Send(&m);
+  }
+}
+
+// The robot's own word (heartbeat, ack) against what the station wants: a
+// robot that walks while a merge needs it halted (or a spoofed command that
+// got through on an insecure link) must not pass silently.
+void LinkEndpoint::HaltAlarm(int64_t now) {
+  const bool silent = !last_heard_us_ || now - last_heard_us_ > static_cast<int64_t>(o_.silence_s * 1e6);
+  const bool disagree = !silent && stats_.robot_halted != want_halt_;
+  if (!disagree) {
+    if (stats_.halt_alarm)
+      spdlog::info("link: the robot {} as wanted again after {:.1f} s", want_halt_ ? "stands" : "walks",
+                   stats_.halt_alarm_s);
+    disagree_since_us_ = 0;
+    stats_.halt_alarm = false;
+    stats_.halt_alarm_s = 0;
+    return;
+  }
+  if (!disagree_since_us_) disagree_since_us_ = now;
+  stats_.halt_alarm_s = (now - disagree_since_us_) * 1e-6;
+  if (!stats_.halt_alarm && stats_.halt_alarm_s >= o_.halt_alarm_s) {
+    stats_.halt_alarm = true;
+    ++stats_.halt_alarms;
+    spdlog::error("link: ALARM: the robot {} while the ground station wants it {} ({:.1f} s){}",
+                  want_halt_ ? "walks" : "stands", want_halt_ ? "halted" : "walking", stats_.halt_alarm_s,
+                  stats_.robot_failsafe ? " (its fail-safe)" : "");
   }
 }
 

@@ -24,6 +24,7 @@
 #include "common/recent_samples.h"
 #include "ipc/link/clock_sync.h"
 #include "ipc/link/frame_reassembler.h"
+#include "ipc/link/link_key.h"
 #include "ipc/link/link_options.h"
 
 namespace rumi {
@@ -39,6 +40,20 @@ struct LinkStats {
   uint64_t datagrams = 0;
   uint64_t bad_datagrams = 0;         // failed to parse (garbage, truncated, corrupted)
   uint64_t other_robot = 0;           // another robot id
+  // Authentication (docs/robot_link.md, "Security"): each costs a counter, no state.
+  bool insecure = false;              // link.insecure: nothing is authenticated
+  bool authenticated = false;         // a session with the robot is established
+  uint64_t sessions = 0;              // sessions established (robot restarts, fail-safes)
+  uint64_t unauthenticated = 0;       // no tag (a robot without key, or anyone else)
+  uint64_t auth_failures = 0;         // a tag our keys did not make (spoofed or corrupted)
+  uint64_t replays = 0;               // a sequence number seen before (or a jump)
+  uint64_t wrong_source = 0;          // authentic, but not from the pinned address
+  uint64_t hellos_dropped = 0;        // HELLOs beyond the answer rate
+  // The robot walks while the station wants it halted, or stands while it
+  // wants it walking, for link.halt_alarm_s or longer.
+  bool halt_alarm = false;
+  double halt_alarm_s = 0;            // how long the current disagreement has lasted
+  uint64_t halt_alarms = 0;           // disagreements that raised the alarm
   uint64_t frames_delivered = 0;      // handed to the front
   uint64_t frames_overflow = 0;       // complete but the front was too slow: oldest dropped
   uint64_t imu_samples = 0;
@@ -95,10 +110,16 @@ class LinkEndpoint {
     int tries = 0;
   };
   void Run();
-  void OnDatagram(const uint8_t* data, size_t len, int64_t now_us);
+  void OnDatagram(const uint8_t* data, size_t len, int64_t now_us, const void* from, unsigned from_len);
+  bool Authentic(const rl_message& m, const uint8_t* data, size_t len, const void* from, unsigned from_len);
+  void OnHello(const rl_message& m, const uint8_t* data, size_t len, const void* from, unsigned from_len,
+               int64_t now_us);
+  void HaltAlarm(int64_t now_us);  // mu_ held
   void Timers(int64_t now_us);
   void QueueControl(uint8_t command, int32_t a0 = 0, int32_t a1 = 0, int32_t a2 = 0);  // mu_ held
   void Send(rl_message* m);
+  // The datagram as it goes out: sequence number, robot id, tag.
+  size_t Seal(rl_message* m, const uint8_t* key, uint8_t* out, size_t cap);
   void LogFrame(const LinkFrame& f, int64_t ground_capture_us, const char* status);
 
   LinkOptions o_;
@@ -118,6 +139,21 @@ class LinkEndpoint {
   std::vector<PendingControl> controls_;
 
   // Thread-only.
+  struct Session {
+    LinkKey key{};
+    uint8_t nonce_robot[RL_NONCE_SIZE] = {};
+    uint8_t nonce_ground[RL_NONCE_SIZE] = {};
+    rl_replay replay{};
+    int64_t created_us = 0;
+  };
+  bool secure_ = false;
+  LinkKey key_{};                   // the robot's key
+  bool have_session_ = false;
+  Session session_;
+  std::vector<Session> pending_;    // answered HELLOs, newest last (at most 4)
+  int64_t hello_second_us_ = 0;
+  int hellos_this_second_ = 0;
+  int64_t disagree_since_us_ = 0;
   FrameReassembler reassembler_;
   RateControl rate_;
   ClockSync clock_;

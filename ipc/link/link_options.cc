@@ -1,5 +1,7 @@
 #include "ipc/link/link_options.h"
 
+#include "ipc/link/link_key.h"
+
 namespace rumi {
 
 bool ParseHostPort(const std::string& s, std::string* host, int* port, std::string* why) {
@@ -51,6 +53,12 @@ const OptionSpec<LinkOptions>& LinkOptions::Spec() {
     s->Text("frames_log", &O::frames_log, "CSV of every frame (latency, fragments); '' none");
     s->Number("max_halt_s", &O::max_halt_s, Above(0.0), AtMost(3600.0),
               "hierarchical mode: resume the robot after this long even if the merge has not come");
+    s->Text("key_file", &O::key_file,
+            "the robot's key, 64 hex digits, mode 0600 (`rumi link keygen`); every datagram authenticated");
+    s->Flag("insecure", &O::insecure,
+            "no key: unauthenticated lab link, anyone on the network can steer the robot (logged loudly)");
+    s->Number("halt_alarm_s", &O::halt_alarm_s, Above(0.0), AtMost(3600.0),
+              "alarm when the robot walks or stands against the station's wish this long");
     s->Section("rate_control", &O::rate_control, RateControlOptions::Spec());
     s->Rule([](const O& o) -> std::string {
       std::string h, why;
@@ -58,6 +66,14 @@ const OptionSpec<LinkOptions>& LinkOptions::Spec() {
       if (!ParseHostPort(o.bind, &h, &p, &why)) return "bind: " + why;
       if (!o.robot.empty() && !ParseHostPort(o.robot, &h, &p, &why)) return "robot: " + why;
       if (!o.robot.empty() && p == 0) return "robot: port 0 is not a robot's port";
+      return "";
+    });
+    s->Rule("key_file and insecure: true exclude each other",
+            [](const O& o) { return o.key_file.empty() || !o.insecure; });
+    s->Rule([](const O& o) -> std::string {  // a key that cannot be used is a config error, found at start
+      LinkKey key;
+      std::string why;
+      if (!o.key_file.empty() && !LoadLinkKey(o.key_file, &key, &why)) return "key_file: " + why;
       return "";
     });
     s->Rule("frame_deadline_ms must be > nack_delay_ms",

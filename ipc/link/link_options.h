@@ -25,7 +25,13 @@ struct LinkOptions {
   int queue_frames = 8;               // complete frames waiting for the front; oldest dropped
   std::string frames_log;             // CSV of every frame (latency, fragments); "" none
   double max_halt_s = 15;             // hierarchical mode: resume even if the merge has not come
+  std::string key_file;               // the robot's key (`rumi link keygen`), 0600
+  bool insecure = false;              // true: no key, anyone on the network may steer the robot
+  double halt_alarm_s = 2.0;          // the robot walks/stands against the station's wish this long: alarm
   RateControlOptions rate_control;    // a lower frame rate when the link cannot carry the frames
+  // A key or an explicit insecure: what an endpoint needs (the source's spec
+  // asks it of a link source; LinkEndpoint refuses to start without it).
+  bool Keyed() const { return !key_file.empty() || insecure; }
   static const OptionSpec<LinkOptions>& Spec();
   bool Check(std::string* why = nullptr) const { return Spec().Check(*this, why); }
 };

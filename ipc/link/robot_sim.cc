@@ -68,10 +68,12 @@ SimRobot::SimRobot(const SimRobotOptions& o)
   getsockname(fd_, reinterpret_cast<sockaddr*>(&b), &bl);
   port_ = ntohs(b.sin_port);
   start_ground_us_ = LinkNowUs();
-  rr_hw hw{this, HwSend, HwNow, HwMotion, HwCamera, HwRssi};
+  rr_hw hw{this, HwSend, HwNow, HwMotion, HwCamera, HwRssi, HwRandom};
   rr_config c;
   rr_config_default(&c);
   c.robot_id = static_cast<uint16_t>(o_.robot_id);
+  c.has_key = o_.has_key;
+  std::memcpy(c.key, o_.key.data(), sizeof(c.key));
   c.failsafe_ms = static_cast<uint32_t>(o_.failsafe_ms);
   std::lock_guard<std::mutex> l(mu_);
   rr_init(robot_.get(), &hw, &c);
@@ -114,6 +116,8 @@ int SimRobot::HwCamera(void* ctx, int, int, int, int fps_milli) {
 }
 int SimRobot::HwRssi(void* ctx) { return static_cast<SimRobot*>(ctx)->o_.rssi_dbm; }
 
+int SimRobot::HwRandom(void*, uint8_t* out, size_t n) { return RandomBytes(out, n) ? 0 : -1; }
+
 int64_t SimRobot::SendFrame(const std::vector<uint8_t>& bytes, int width, int height, uint8_t format,
                             uint8_t quality) {
   std::lock_guard<std::mutex> l(mu_);
@@ -138,6 +142,11 @@ bool SimRobot::moving() const {
 bool SimRobot::heard() const {
   std::lock_guard<std::mutex> l(mu_);
   return robot_->heard != 0;
+}
+
+bool SimRobot::authenticated() const {
+  std::lock_guard<std::mutex> l(mu_);
+  return rr_authenticated(robot_.get()) != 0;
 }
 
 rr_stats SimRobot::stats() const {

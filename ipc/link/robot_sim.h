@@ -14,6 +14,7 @@
 #include <thread>
 #include <vector>
 
+#include "ipc/link/link_key.h"
 #include "rumi_robot.h"
 
 namespace rumi {
@@ -50,6 +51,8 @@ struct SimRobotOptions {
   double drift_ppm = 0;                   // robot clock runs fast by this much
   double failsafe_ms = 2000;
   int rssi_dbm = -55;                     // what its heartbeats report (0: unknown)
+  bool has_key = false;                   // authenticated link with key; false: insecure
+  LinkKey key{};
   uint64_t seed = 1;
 };
 
@@ -63,6 +66,7 @@ class SimRobot {
   void AddImu(const float accel[3], const float gyro[3]);
   bool moving() const;
   bool heard() const;  // the robot has heard the ground station since it started
+  bool authenticated() const;  // with a key: a session with the ground station is up
   // The frame rate the ground station asked for (control `frame rate`), fps;
   // 0: none asked (the sequence's own). The caller paces its frames by it.
   double asked_fps() const { return asked_fps_milli_.load() * 1e-3; }
@@ -81,6 +85,7 @@ class SimRobot {
   static void HwMotion(void* ctx, int moving, int gait);
   static int HwCamera(void* ctx, int w, int h, int q, int f);
   static int HwRssi(void* ctx);
+  static int HwRandom(void* ctx, uint8_t* out, size_t n);
   void Run();
 
   SimRobotOptions o_;

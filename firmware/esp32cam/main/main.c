@@ -25,6 +25,7 @@
 #include "camera.h"
 #include "esp_heap_caps.h"
 #include "esp_log.h"
+#include "esp_random.h"
 #include "esp_system.h"
 #include "esp_task_wdt.h"
 #include "esp_timer.h"
@@ -34,6 +35,7 @@
 #include "lwip/inet.h"
 #include "lwip/sockets.h"
 #include "mpu6050.h"
+#include "nvs.h"
 #include "nvs_flash.h"
 #include "rumi_robot.h"
 #include "sdkconfig.h"
@@ -292,12 +294,13 @@ static void poll_task(void* arg) {
     robot_unlock();
     ESP_LOGI(TAG,
              "frames %u (skipped %u), fragments %u (+%u resent, %u NACKs too old), imu %u, "
-             "send failures %u, controls %u, bad %u, foreign %u, %s, rssi %d dBm, "
-             "free internal %u B, PSRAM %u B",
+             "send failures %u, controls %u, bad %u, foreign %u, unauthenticated %u, auth failures %u, "
+             "replays %u, sessions %u, %s, rssi %d dBm, free internal %u B, PSRAM %u B",
              (unsigned)st.frames_sent, (unsigned)st.frames_skipped, (unsigned)st.fragments_sent,
              (unsigned)st.fragments_resent, (unsigned)st.nacks_too_old, (unsigned)st.imu_samples,
              (unsigned)st.send_failures, (unsigned)st.controls, (unsigned)st.bad_datagrams,
-             (unsigned)s_foreign_datagrams, moving ? "walking" : (failsafe ? "FAIL-SAFE halt" : "halted"),
+             (unsigned)s_foreign_datagrams, (unsigned)st.unauthenticated, (unsigned)st.auth_failures,
+             (unsigned)st.replays, (unsigned)st.sessions, moving ? "walking" : (failsafe ? "FAIL-SAFE halt" : "halted"),
              wifi_sta_rssi(), (unsigned)heap_caps_get_free_size(MALLOC_CAP_INTERNAL),
              (unsigned)heap_caps_get_free_size(MALLOC_CAP_SPIRAM));
   }
@@ -342,6 +345,29 @@ static void fatal(const char* what, esp_err_t err) {
   esp_restart();
 }
 
+/* The HELLO nonce: the hardware RNG (true random while Wi-Fi runs). */
+static int hw_random(void* ctx, uint8_t* out, size_t n) {
+  (void)ctx;
+  esp_fill_random(out, n);
+  return 0;
+}
+
+/* The link key from NVS (namespace "rumi", blob "link_key", 32 bytes;
+ * `rumi link keygen` writes the CSV that is flashed there). Without one the
+ * robot refuses to stream unless the build says insecure. */
+static int load_link_key(uint8_t key[RL_KEY_SIZE]) {
+  nvs_handle_t h;
+  size_t len = RL_KEY_SIZE;
+  esp_err_t err = nvs_open("rumi", NVS_READONLY, &h);
+  if (err == ESP_OK) {
+    err = nvs_get_blob(h, "link_key", key, &len);
+    nvs_close(h);
+  }
+  if (err == ESP_OK && len == RL_KEY_SIZE) return 1;
+  ESP_LOGW(TAG, "no link key in NVS (rumi/link_key): %s", err == ESP_OK ? "wrong size" : esp_err_to_name(err));
+  return 0;
+}
+
 void app_main(void) {
   esp_err_t err = nvs_flash_init(); /* the Wi-Fi driver keeps its calibration there */
   if (err == ESP_ERR_NVS_NO_FREE_PAGES || err == ESP_ERR_NVS_NEW_VERSION_FOUND) {
@@ -380,6 +406,16 @@ void app_main(void) {
   cfg.imu_batch = CONFIG_RUMI_IMU_BATCH;
   cfg.imu_batch_ms = CONFIG_RUMI_IMU_BATCH_MS;
   cfg.gait = 1;
+  cfg.has_key = load_link_key(cfg.key);
+  if (!cfg.has_key) {
+#ifdef CONFIG_RUMI_LINK_INSECURE
+    ESP_LOGW(TAG, "INSECURE link (CONFIG_RUMI_LINK_INSECURE): anyone on the Wi-Fi can halt or steer this robot");
+#else
+    ESP_LOGE(TAG, "no link key: flash one (rumi link keygen; firmware/README.md) or build with "
+                  "CONFIG_RUMI_LINK_INSECURE for a lab; standing still");
+    for (;;) vTaskDelay(pdMS_TO_TICKS(1000));
+#endif
+  }
 #ifdef CONFIG_RUMI_START_HALTED
   cfg.start_halted = 1;
 #else
@@ -392,6 +428,7 @@ void app_main(void) {
       .set_motion = hw_set_motion,
       .set_camera = s_cam.ok ? hw_set_camera : NULL, /* NULL: camera commands are acked "unsupported" */
       .rssi_dbm = hw_rssi_dbm,
+      .random = hw_random,
   };
   robot_lock();
   rr_init(s_robot, &hw, &cfg);
@@ -415,7 +452,8 @@ void app_main(void) {
   if (err == ESP_OK) err = esp_timer_start_periodic(imu_timer, 1000000ULL / CONFIG_RUMI_IMU_RATE_HZ);
   if (err != ESP_OK) fatal("IMU timer", err);
 
-  ESP_LOGI(TAG, "robot %d up: %s, %d fps, IMU %d Hz, fail-safe %d ms", CONFIG_RUMI_ROBOT_ID,
+  ESP_LOGI(TAG, "robot %d up (%s link): %s, %d fps, IMU %d Hz, fail-safe %d ms", CONFIG_RUMI_ROBOT_ID,
+           cfg.has_key ? "authenticated" : "INSECURE",
            cfg.start_halted ? "halted until the ground station resumes it" : "walking once the ground station is heard", CONFIG_RUMI_FPS,
            CONFIG_RUMI_IMU_RATE_HZ, CONFIG_RUMI_FAILSAFE_MS);
 }
