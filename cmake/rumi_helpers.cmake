@@ -64,7 +64,9 @@ endfunction()
 function(rumi_add_test name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
-  target_compile_options(${name} PRIVATE ${RUMI_WARNINGS})
+  # Test code is compiled, not timed: -O1 takes a third less compile time
+  # than the release -O3 (what the tests exercise, the libraries, stays -O3).
+  target_compile_options(${name} PRIVATE ${RUMI_WARNINGS} $<$<CONFIG:Release>:-O1>)
   target_compile_definitions(${name} PRIVATE
     RUMI_SHARED_DATA_DIR="${RUMI_SHARED_DATA_DIR}"
     RUMI_SOURCE_DIR="${PROJECT_SOURCE_DIR}"

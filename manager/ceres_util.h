@@ -7,8 +7,10 @@
 
 namespace rumi {
 
-// Robust loss by name ("huber" / "cauchy") with a scale in pixels.
+// Robust loss by name ("huber" / "cauchy"; "trivial": none, plain least
+// squares) with a scale in the residual's units.
 inline ceres::LossFunction* MakeRobustLoss(const std::string& name, double scale) {
+  if (name == "trivial") return nullptr;
   if (name == "cauchy") return new ceres::CauchyLoss(scale);
   return new ceres::HuberLoss(scale);
 }

@@ -1,0 +1,246 @@
+#include "manager/pose_graph.h"
+
+#include <ceres/ceres.h>
+
+#include <cmath>
+#include <memory>
+#include <set>
+
+#include "manager/ceres_util.h"
+
+namespace rumi {
+namespace {
+
+// A node: log scale, unit quaternion (x, y, z, w), translation; S_wi.
+struct Node {
+  double log_s = 0;
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+};
+
+// r = whiten(Log(S_ij_meas^-1 * S_wi^-1 * S_wj)), with the rotation part as
+// twice the vector part of the error quaternion (its angle for small errors).
+template <typename T>
+void EdgeResidual(const T* log_si, const T* qi_xyzw, const T* ti_p, const T* log_sj, const T* qj_xyzw,
+                  const T* tj_p, const Sim3& meas, const double* w, T* r) {
+  const Eigen::Map<const Eigen::Quaternion<T>> qi(qi_xyzw), qj(qj_xyzw);
+  const Eigen::Map<const Eigen::Matrix<T, 3, 1>> ti(ti_p), tj(tj_p);
+  const T si = ceres::exp(log_si[0]);
+  // Estimated S_ij = S_wi^-1 * S_wj.
+  const Eigen::Quaternion<T> q_ij = qi.conjugate() * qj;
+  const Eigen::Matrix<T, 3, 1> t_ij = (qi.conjugate() * (tj - ti)) / si;
+  const T log_s_ij = log_sj[0] - log_si[0];
+  // Error S_meas^-1 * S_ij.
+  const Eigen::Quaternion<T> qm = meas.rotation().cast<T>();
+  const T sm = T(meas.scale());
+  const Eigen::Quaternion<T> q_e = qm.conjugate() * q_ij;
+  const Eigen::Matrix<T, 3, 1> t_e = (qm.conjugate() * (t_ij - meas.translation().cast<T>())) / sm;
+  const T sign = q_e.w() < T(0) ? T(-1) : T(1);  // the shorter way round
+  for (int k = 0; k < 3; ++k) {
+    r[k] = t_e[k] * T(w[0]);
+    r[3 + k] = T(2) * sign * q_e.vec()[k] * T(w[1]);
+  }
+  r[6] = (log_s_ij - T(std::log(meas.scale()))) * T(w[2]);
+}
+
+struct EdgeCost {
+  EdgeCost(const Sim3& m, double wt, double wr, double ws) : meas(m), w{wt, wr, ws} {}
+  template <typename T>
+  bool operator()(const T* log_si, const T* qi, const T* ti, const T* log_sj, const T* qj, const T* tj,
+                  T* r) const {
+    // A trial step to an absurd scale is an invalid point, not a NaN.
+    if (!(ceres::abs(log_si[0]) < T(30)) || !(ceres::abs(log_sj[0]) < T(30))) return false;
+    EdgeResidual(log_si, qi, ti, log_sj, qj, tj, meas, w, r);
+    return true;
+  }
+  Sim3 meas;
+  double w[3];
+};
+
+void Weights(const PoseGraphEdge& e, const PoseGraphOptions& o, double w[3]) {
+  const double sw = std::sqrt(std::max(0.0, e.weight));
+  w[0] = sw / o.translation_sigma;
+  w[1] = sw / o.rotation_sigma_rad;
+  w[2] = sw / o.scale_sigma;
+}
+
+Node ToNode(const Sim3& S) { return Node{std::log(S.scale()), S.rotation(), S.translation()}; }
+Sim3 ToSim3(const Node& n) { return Sim3(std::exp(n.log_s), n.q, n.t); }
+
+}  // namespace
+
+const char* PoseGraphEdgeKindName(PoseGraphEdgeKind k) {
+  switch (k) {
+    case PoseGraphEdgeKind::kCovisibility: return "covisibility";
+    case PoseGraphEdgeKind::kMerge: return "merge";
+    case PoseGraphEdgeKind::kPlaceMerge: return "place_merge";
+    case PoseGraphEdgeKind::kLoop: return "loop";
+    case PoseGraphEdgeKind::kOdometry: return "odometry";
+  }
+  return "?";
+}
+
+Eigen::Matrix<double, 7, 1> PoseGraphResidual(const std::vector<Sim3>& S_w, const PoseGraphEdge& e,
+                                              const PoseGraphOptions& o) {
+  const Node a = ToNode(S_w[e.i]), b = ToNode(S_w[e.j]);
+  double w[3];
+  Weights(e, o, w);
+  Eigen::Matrix<double, 7, 1> r;
+  EdgeResidual(&a.log_s, a.q.coeffs().data(), a.t.data(), &b.log_s, b.q.coeffs().data(), b.t.data(), e.S_ij, w,
+               r.data());
+  return r;
+}
+
+PoseGraphResult OptimizePoseGraph(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdge>& edges,
+                                  const std::vector<int>& fixed, const PoseGraphOptions& o) {
+  PoseGraphResult res;
+  const int n = static_cast<int>(S_w->size());
+  if (fixed.empty()) {
+    res.message = "no fixed node: the graph's gauge (7 degrees of freedom) is free";
+    return res;
+  }
+  for (int f : fixed)
+    if (f < 0 || f >= n) {
+      res.message = "fixed node " + std::to_string(f) + " is not a node";
+      return res;
+    }
+  for (const PoseGraphEdge& e : edges)
+    if (e.i < 0 || e.j < 0 || e.i >= n || e.j >= n || e.i == e.j || !(e.S_ij.scale() > 0)) {
+      res.message = "edge " + std::to_string(e.i) + "-" + std::to_string(e.j) + " is not an edge between two nodes";
+      return res;
+    }
+  std::vector<Node> nodes(n);
+  for (int k = 0; k < n; ++k) nodes[k] = ToNode((*S_w)[k]);
+  ceres::Problem::Options po;
+  po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
+  // Graduated non-convexity: a robust loss from the start would take a right
+  // loop edge (large residual: the drift it corrects) for an outlier. Solve
+  // first with the loss nearly quadratic, then shrink its scale: edges that
+  // agree with the rest end with small residuals, a wrong one with a large
+  // residual the loss no longer listens to.
+  std::vector<double> scales;
+  for (int k = o.gnc_steps; k >= 0; --k) scales.push_back(o.loss_scale * std::pow(o.gnc_factor, k));
+  ceres::LossFunctionWrapper loss(MakeRobustLoss(o.loss, scales[0]), ceres::TAKE_OWNERSHIP);
+  ceres::EigenQuaternionManifold quaternion;
+  std::set<int> used;
+  for (const PoseGraphEdge& e : edges) {
+    double w[3];
+    Weights(e, o, w);
+    auto* cost = new ceres::AutoDiffCostFunction<EdgeCost, 7, 1, 4, 3, 1, 4, 3>(new EdgeCost(e.S_ij, w[0], w[1], w[2]));
+    Node& a = nodes[e.i];
+    Node& b = nodes[e.j];
+    problem.AddResidualBlock(cost, o.loss == "trivial" ? nullptr : &loss, &a.log_s, a.q.coeffs().data(), a.t.data(),
+                             &b.log_s, b.q.coeffs().data(), b.t.data());
+    used.insert(e.i);
+    used.insert(e.j);
+  }
+  for (int k : used) problem.SetManifold(nodes[k].q.coeffs().data(), &quaternion);
+  for (int f : fixed) {
+    if (!used.count(f)) continue;
+    problem.SetParameterBlockConstant(&nodes[f].log_s);
+    problem.SetParameterBlockConstant(nodes[f].q.coeffs().data());
+    problem.SetParameterBlockConstant(nodes[f].t.data());
+  }
+  ceres::Solver::Options so = ManagerSolverOptions(ceres::SPARSE_NORMAL_CHOLESKY, o.max_iterations);
+  for (size_t stage = 0; stage < scales.size(); ++stage) {
+    if (stage > 0) {
+      if (o.loss == "trivial") break;
+      loss.Reset(MakeRobustLoss(o.loss, scales[stage]), ceres::TAKE_OWNERSHIP);
+    }
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &problem, &summary);
+    res.iterations += static_cast<int>(summary.iterations.size());
+    if (stage == 0) res.initial_cost = summary.initial_cost;
+    res.final_cost = summary.final_cost;
+    res.message = summary.BriefReport();
+    res.ok = summary.IsSolutionUsable();
+    if (!res.ok) return res;
+  }
+  for (int k : used) (*S_w)[k] = ToSim3(nodes[k]);
+  for (size_t k = 0; k < edges.size(); ++k)
+    if (PoseGraphResidual(*S_w, edges[k], o).norm() > o.outlier_factor * o.loss_scale)
+      res.outlier_edges.push_back(static_cast<int>(k));
+  return res;
+}
+
+void DistributeCorrection(std::vector<Sim3>* S_w, const std::vector<int>& chain, const Sim3& S_w_target) {
+  if (chain.size() < 2) return;
+  std::vector<Sim3>& S = *S_w;
+  // The world-frame correction of the moving end, about the fixed end's position.
+  const Sim3 C = S_w_target * S[chain.back()].Inverse();
+  const Eigen::Vector3d pivot = S[chain.front()].translation();
+  const Eigen::Vector3d d = C * pivot - pivot;
+  std::vector<double> along(chain.size(), 0.0);
+  for (size_t k = 1; k < chain.size(); ++k)
+    along[k] = along[k - 1] + (S[chain[k]].translation() - S[chain[k - 1]].translation()).norm() + 1e-9;
+  const double total = along.back();
+  const Eigen::Quaterniond I = Eigen::Quaterniond::Identity();
+  std::vector<Sim3> out(chain.size());
+  for (size_t k = 0; k < chain.size(); ++k) {
+    const double f = along[k] / total;
+    const double s = std::pow(C.scale(), f);
+    const Eigen::Quaterniond q = I.slerp(f, C.rotation());
+    // C_f(p) = s R (p - pivot) + pivot + f d, applied to the node's pose.
+    const Sim3 C_f(s, q, pivot + f * d - s * (q * pivot));
+    out[k] = C_f * S[chain[k]];
+  }
+  for (size_t k = 0; k < chain.size(); ++k) S[chain[k]] = out[k];
+  S[chain.back()] = S_w_target;  // exactly, not to rounding
+}
+
+namespace {
+
+double MeanResidual(const std::vector<Sim3>& S_w, const std::vector<PoseGraphEdge>& edges, const PoseGraphOptions& o) {
+  if (edges.empty()) return 0;
+  double sum = 0;
+  for (const PoseGraphEdge& e : edges) sum += PoseGraphResidual(S_w, e, o).norm();
+  return sum / static_cast<double>(edges.size());
+}
+
+}  // namespace
+
+CloseLoopResult CloseLoop(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdge>& edges,
+                          const std::vector<int>& fixed, const PoseGraphEdge& new_edge, const std::vector<int>& chain,
+                          const PoseGraphOptions& o) {
+  CloseLoopResult r;
+  const std::vector<Sim3> before = *S_w;
+  r.mean_residual_before = MeanResidual(before, edges, o);
+  const int n = static_cast<int>(S_w->size());
+  if (chain.size() < 2 || chain.front() != new_edge.j || chain.back() != new_edge.i) {
+    r.reason = "the chain must run from the edge's j to its i";
+    return r;
+  }
+  for (int k : chain)
+    if (k < 0 || k >= n) {
+      r.reason = "chain node " + std::to_string(k) + " is not a node";
+      return r;
+    }
+  // Where the new edge puts its i: S_wi = S_wj * S_ij^-1.
+  DistributeCorrection(S_w, chain, (*S_w)[new_edge.j] * new_edge.S_ij.Inverse());
+  std::vector<PoseGraphEdge> all = edges;
+  all.push_back(new_edge);
+  r.solve = OptimizePoseGraph(S_w, all, fixed, o);
+  auto reject = [&](const std::string& why) {
+    *S_w = before;
+    r.accepted = false;
+    r.reason = why;
+    return r;
+  };
+  if (!r.solve.ok) return reject("the solve failed: " + r.solve.message);
+  r.mean_residual_after = MeanResidual(*S_w, edges, o);
+  for (int k : r.solve.outlier_edges) {
+    if (k == static_cast<int>(edges.size())) return reject("the new edge disagrees with the graph (an outlier)");
+    if (PoseGraphResidual(before, edges[k], o).norm() <= o.outlier_factor * o.loss_scale)
+      return reject("edge " + std::to_string(edges[k].i) + "-" + std::to_string(edges[k].j) +
+                    " (" + PoseGraphEdgeKindName(edges[k].kind) + "), consistent before, is an outlier with it");
+  }
+  if (r.mean_residual_after > o.max_mean_residual)
+    return reject("the graph's edges strain to " + std::to_string(r.mean_residual_after) + " (whitened, mean) with it");
+  r.accepted = true;
+  r.reason = "accepted";
+  return r;
+}
+
+}  // namespace rumi

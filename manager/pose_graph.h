@@ -1,0 +1,100 @@
+#pragma once
+// A Sim(3) pose graph (ORB-SLAM's essential graph, for a monocular map whose
+// scale drifts): nodes are poses S_wi (node frame -> world, with scale), edges
+// relative measurements S_ij (node j's frame in node i's) from covisibility,
+// merges, place merges, loop closures and odometry, each with a weight.
+// Optimised with Ceres under a robust loss, so one wrong edge cannot bend the
+// map: its residual stays large and it is reported as an outlier.
+//
+// docs/manager.md, "Pose graph". The step of #51 that closes loops; the
+// manager does not call it yet (planned: after each verified loop edge, off
+// the ingest path, with a global BA after it).
+#include <string>
+#include <vector>
+
+#include "common/geometry.h"
+
+namespace rumi {
+
+enum class PoseGraphEdgeKind { kCovisibility, kMerge, kPlaceMerge, kLoop, kOdometry };
+const char* PoseGraphEdgeKindName(PoseGraphEdgeKind k);
+
+struct PoseGraphEdge {
+  int i = 0, j = 0;  // node indices
+  Sim3 S_ij;         // measured: p_i = S_ij * p_j
+  double weight = 1.0;  // information scale: 1 for a keyframe-to-keyframe edge of the map's own BA
+  PoseGraphEdgeKind kind = PoseGraphEdgeKind::kCovisibility;
+};
+
+struct PoseGraphOptions {
+  // Robust loss on each edge's whitened residual (a 7-vector: translation in
+  // node i's units / translation_sigma, rotation in rad / rotation_sigma_rad,
+  // log scale / scale_sigma). An edge whose residual norm stays above
+  // outlier_factor x loss_scale after the solve is reported as an outlier.
+  std::string loss = "cauchy";
+  double loss_scale = 1.0;
+  double translation_sigma = 0.02;      // node i's units (a front submap's metres, up to scale)
+  double rotation_sigma_rad = 0.01;
+  double scale_sigma = 0.01;
+  double outlier_factor = 3.0;
+  // Graduated non-convexity: solve at loss_scale x gnc_factor^gnc_steps,
+  // then at each smaller power down to loss_scale. 0: the robust loss from
+  // the start (CloseLoop brings a new edge in by propagating its correction
+  // first, so the graph it optimises is already nearly consistent).
+  int gnc_steps = 0;
+  double gnc_factor = 10.0;
+  int max_iterations = 100;  // per step
+  // CloseLoop accepts a new edge only if, after the solve, the edges that
+  // were there before stay consistent: their mean whitened residual at most
+  // this, and none of them becomes an outlier.
+  double max_mean_residual = 3.0;
+};
+
+struct PoseGraphResult {
+  bool ok = false;
+  int iterations = 0;
+  double initial_cost = 0, final_cost = 0;
+  std::vector<int> outlier_edges;  // indices into the edges
+  std::string message;             // why not ok, or Ceres's summary line
+};
+
+// Whitened residual of edge e at poses S_w (what the solver minimises).
+Eigen::Matrix<double, 7, 1> PoseGraphResidual(const std::vector<Sim3>& S_w, const PoseGraphEdge& e,
+                                              const PoseGraphOptions& o);
+
+// Optimises *S_w in place; fixed nodes (at least one: the gauge, 7 degrees of
+// freedom of a monocular map) keep their pose. Nodes no edge reaches keep
+// theirs too.
+PoseGraphResult OptimizePoseGraph(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdge>& edges,
+                                  const std::vector<int>& fixed, const PoseGraphOptions& o = {});
+
+// Spreads a correction along a chain of nodes (the path the drift
+// accumulated on, from the loop's old end chain.front(), which stays, to its
+// new end chain.back(), which moves to S_w_target): each node takes the share
+// of its distance along the chain, rotation and scale about chain.front()'s
+// position (ORB-SLAM corrects a loop's keyframes before its essential graph).
+void DistributeCorrection(std::vector<Sim3>* S_w, const std::vector<int>& chain, const Sim3& S_w_target);
+
+struct CloseLoopResult {
+  bool accepted = false;
+  std::string reason;         // why not, or what was done
+  PoseGraphResult solve;
+  double mean_residual_before = 0, mean_residual_after = 0;  // of the edges that were there before
+};
+
+// A new loop (or merge) edge into a graph whose edges are consistent: its
+// correction is spread along chain (from new_edge.j's side to new_edge.i),
+// the graph solved, and the edge kept only if the graph stays consistent
+// (PoseGraphOptions::max_mean_residual, no old edge an outlier, the new one
+// not an outlier). Rejected: *S_w is as it was.
+CloseLoopResult CloseLoop(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdge>& edges,
+                          const std::vector<int>& fixed, const PoseGraphEdge& new_edge, const std::vector<int>& chain,
+                          const PoseGraphOptions& o = {});
+
+// How a point expressed in world coordinates moves with its node: the point
+// was p_w under S_w_old and is S_w_new * S_w_old^-1 * p_w now.
+inline Eigen::Vector3d MoveWithNode(const Eigen::Vector3d& p_w, const Sim3& S_w_old, const Sim3& S_w_new) {
+  return S_w_new * (S_w_old.Inverse() * p_w);
+}
+
+}  // namespace rumi
