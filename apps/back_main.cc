@@ -74,7 +74,7 @@ int PrintWireBench(const ImageWindow& w) {
 int main(int argc, char** argv) {
   CLI::App app{"rumi-back: COLMAP-built back submaps from sampled image windows"};
   std::string window_dir, config_path, out_dir, gt_path, log_level, instance, work_dir;
-  double wait_for_producer_s = -1, wait_for_consumer_s = -1;
+  std::vector<std::string> sets;
   int64_t first_submap_id = 0;
   bool bench = false, bench_wire = false, keep = false, daemon = false, remote = false;
   std::string worker_name;
@@ -85,10 +85,6 @@ int main(int argc, char** argv) {
   app.add_option("--out", out_dir, "output folder (result.json, submap_<id>.json, submap_<id>_tum.txt)");
   app.add_option("--instance", instance, "rumi instance id: windows from shared memory (rumi_<ID>_windows)");
   app.add_option("--work", work_dir, "shared-memory mode: folder for back_stats.json");
-  app.add_option("--wait-for-producer", wait_for_producer_s, "overrides back.wait_for_producer_s")
-      ->check(CLI::NonNegativeNumber);
-  app.add_option("--wait-for-consumer", wait_for_consumer_s, "overrides back.wait_for_consumer_s")
-      ->check(CLI::NonNegativeNumber);
   app.add_option("--first-submap-id", first_submap_id, "rumid: back submap ids start here")
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--daemon", daemon,
@@ -105,16 +101,17 @@ int main(int argc, char** argv) {
   app.add_option("--count", wd.count, "number of frames used (-1 = all)");
   app.add_option("--step", wd.step, "use every step-th frame")->check(CLI::PositiveNumber);
   app.add_option("--scale", wd.scale, "resize images and camera by this factor")->check(CLI::PositiveNumber);
-  app.add_flag("--keep-workspace", keep, "keep the COLMAP workspace (overrides back.keep_workspaces)");
+  app.add_flag("--keep-workspace", keep, "keep the COLMAP workspace (= --set back.keep_workspaces=true)");
+  AddConfigSetOptions(&app, &sets,
+                      {{"--wait-for-producer", "back.wait_for_producer_s"},
+                       {"--wait-for-consumer", "back.wait_for_consumer_s"}});
   app.add_option("--log-level", log_level, "trace|debug|info|warn|error|off (overrides the config)");
   CLI11_PARSE(app, argc, argv);
 
-  ProcessSetup setup("back", config_path, log_level);
+  if (keep) sets.push_back("back.keep_workspaces=true");
+  ProcessSetup setup("back", config_path, log_level, sets);
   if (!setup.Load()) return kExitBadInput;
   BackOptions options = setup.config().back;
-  if (keep) options.keep_workspaces = true;
-  if (wait_for_producer_s >= 0) options.wait_for_producer_s = wait_for_producer_s;
-  if (wait_for_consumer_s >= 0) options.wait_for_consumer_s = wait_for_consumer_s;
 
   if (remote) {
     if (instance.empty()) {

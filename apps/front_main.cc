@@ -63,7 +63,7 @@ int Main(int argc, char** argv) {
   // Process mode (docs/eval.md): the configured source (or --dataset),
   // windows and submaps over shared memory.
   std::string instance, rate, odometry_path, imu_path, calibration;
-  double resend_interval_s = -1, wait_for_consumers_s = -1;
+  std::vector<std::string> sets;
   int64_t first_submap_id = 0, replay_start_ns = 0;
   bool daemon = false;
   app.add_option("--instance", instance, "ipc instance: run as the pipeline's front (docs/eval.md); needs --out");
@@ -77,15 +77,16 @@ int Main(int argc, char** argv) {
                  "with --instance: the dataset's calibration, 'dataset' or a YAML with camera: (overrides "
                  "source.calibration)");
   app.add_option("--rate", rate, "with --instance: replay at R x the recorded rate, or max (overrides source.rate)");
-  app.add_option("--resend-interval", resend_interval_s, "overrides publisher.resend_interval_s");
-  app.add_option("--wait-for-consumers", wait_for_consumers_s, "overrides publisher.wait_for_consumers_s");
+  AddConfigSetOptions(&app, &sets,
+                      {{"--resend-interval", "publisher.resend_interval_s"},
+                       {"--wait-for-consumers", "publisher.wait_for_consumers_s"}});
   app.add_option("--first-submap-id", first_submap_id, "rumid: submap and window ids start here")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--replay-start-ns", replay_start_ns,
                  "rumid: steady-clock time the dataset's first frame was due (a restarted front joins there)");
   app.add_flag("--daemon", daemon, "rumid: append to the frame files, leave the channels for the next consumer");
   CLI11_PARSE(app, argc, argv);
-  ProcessSetup setup("front", config_path, log_level);
+  ProcessSetup setup("front", config_path, log_level, sets);
   if (!setup.Load()) return kExitBadInput;
   const RumiConfig& config = setup.config();
   if (!instance.empty()) {
@@ -117,8 +118,6 @@ int Main(int argc, char** argv) {
     o.publisher.out_dir = out_dir;
     o.publisher.append_files = daemon;
     o.publisher.keep_segments = daemon;
-    if (resend_interval_s >= 0) o.publisher.resend_interval_s = resend_interval_s;
-    if (wait_for_consumers_s >= 0) o.publisher.wait_for_consumers_s = wait_for_consumers_s;
     o.ipc = config.ipc;
     o.ipc.instance = instance;
     std::string why;

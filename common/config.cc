@@ -84,6 +84,41 @@ void ConfigSection::Finish() const {
   throw ConfigError(msg);
 }
 
+void ConfigSection::Set(const std::string& dotted_key, const std::string& value) {
+  YAML::Node v;
+  try {
+    v = YAML::Load(value);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError("--set " + FullKey(dotted_key) + "=" + value + ": not a YAML value: " + e.msg);
+  }
+  if (!v.IsScalar() && !v.IsNull())
+    throw ConfigError("--set " + FullKey(dotted_key) + ": a single value, not '" + value + "'");
+  if (!v.IsScalar()) v = YAML::Node(value);  // "" and the like: the text itself
+  if (!node_ || node_.IsNull()) node_ = YAML::Node(YAML::NodeType::Map);
+  YAML::Node at;
+  at.reset(node_);  // Node's operator= assigns the content it refers to; reset() moves the reference
+  std::string rest = dotted_key;
+  for (size_t dot; (dot = rest.find('.')) != std::string::npos; rest = rest.substr(dot + 1)) {
+    const std::string part = rest.substr(0, dot);
+    if (part.empty()) throw ConfigError("--set " + dotted_key + ": an empty key part");
+    if (!at[part]) at[part] = YAML::Node(YAML::NodeType::Map);
+    if (!at[part].IsMap())
+      throw ConfigError("--set " + FullKey(dotted_key) + ": '" + part + "' is a value, not a section");
+    YAML::Node next = at[part];
+    at.reset(next);
+  }
+  if (rest.empty()) throw ConfigError("--set " + dotted_key + ": an empty key");
+  at[rest] = v;
+}
+
+void ApplyConfigSets(ConfigSection* root, const std::vector<std::string>& sets) {
+  for (const std::string& s : sets) {
+    const size_t eq = s.find('=');
+    if (eq == std::string::npos || eq == 0) throw ConfigError("--set '" + s + "': expected KEY=VALUE");
+    root->Set(s.substr(0, eq), s.substr(eq + 1));
+  }
+}
+
 ConfigSection LoadConfigFile(const std::string& path) {
   std::string why;
   if (!CheckRegularFile(path, kMaxConfigBytes, &why)) throw ConfigError(path + ": cannot read config file: " + why);

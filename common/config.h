@@ -36,6 +36,12 @@ class ConfigSection {
   // Sub-section (empty when absent; throws when present but not a map).
   ConfigSection Child(const std::string& key);
 
+  // Sets a dotted key below this section ("manager.rebuild_interval_s") to a
+  // YAML scalar, making the maps on the way: a command-line `--set`, read
+  // afterwards exactly as the file's own keys are (types, ranges, rules).
+  // Throws ConfigError when the value is not a scalar or the way is not maps.
+  void Set(const std::string& dotted_key, const std::string& value);
+
   // Marks key and everything below it as used without reading it: a section
   // that belongs to another process in a shared config file.
   void Ignore(const std::string& key);
@@ -58,6 +64,10 @@ class ConfigSection {
 // Loads a YAML file; throws ConfigError when missing, unreadable or malformed.
 ConfigSection LoadConfigFile(const std::string& path);
 ConfigSection LoadConfigString(const std::string& yaml, const std::string& name = "<string>");
+
+// "KEY=VALUE" -> root.Set(KEY, VALUE) for each; throws ConfigError naming the
+// argument when one has no '='.
+void ApplyConfigSets(ConfigSection* root, const std::vector<std::string>& sets);
 
 // Throws ConfigError "<file>: <section>: <why>" when options.Check fails.
 template <typename Options>

@@ -9,6 +9,8 @@
 
 #include "front/frame_tracker.h"
 #include "front/local_mapping.h"
+#include "front/matcher.h"
+#include "front/optimizer.h"
 
 namespace rumi {
 namespace {
@@ -336,6 +338,17 @@ FrameRecord Front::MakeRecord() const {
 
 void Front::Initialize() {
   const bool reinit = submap_id_ > first_submap_id_;  // a first map of this process can wait; a re-init cannot
+  if (options_.init_backfill) {
+    TrackFrame kept;
+    kept.id = cur_.id;
+    kept.timestamp = cur_.timestamp;
+    kept.f = cur_.f;
+    // A frame older than the reference can never be used: keep what one
+    // reference can span.
+    while (!init_frames_.empty() && cur_.id - init_frames_.front().id > options_.init_max_frames + 1)
+      init_frames_.erase(init_frames_.begin());
+    init_frames_.push_back(std::move(kept));
+  }
   if (!initializer_.Match(cur_, reinit, camera_)) return;
   std::lock_guard<std::mutex> lock(map_->mutex);
   InitialMap m;
@@ -364,6 +377,7 @@ void Front::Initialize() {
   spdlog::info("front: submap {} initialised ({}), {} points, parallax {:.1f} deg, RH {:.2f}, gap {} frames",
                submap_id_, m.two_view.model, m.tracked, m.two_view.parallax_deg, m.two_view.score_ratio,
                static_cast<int>(m.gap));
+  BackfillInitialFrames(m);
   mapper_->Push(m.kf0);
   mapper_->Push(m.kf1);
   if (!options_.local_mapping_thread) {
@@ -371,6 +385,33 @@ void Front::Initialize() {
     mapper_->Drain();
     map_->mutex.lock();
   }
+}
+
+void Front::BackfillInitialFrames(const InitialMap& m) {
+  std::vector<TrackFrame> frames;
+  frames.swap(init_frames_);
+  if (!options_.init_backfill || m.gap < 2) return;
+  const int64_t id0 = m.kf0->frame_id, id1 = m.kf1->frame_id;
+  const Eigen::Matrix<double, 6, 1> xi1 = m.kf1->T_cw.Log();  // kf0 is the identity
+  int posed = 0, tried = 0;
+  for (TrackFrame& f : frames) {
+    if (f.id <= id0 || f.id >= id1) continue;
+    ++tried;
+    // From the motion spread evenly over the gap, as the velocity is.
+    f.T_cw = Se3::Exp(xi1 * (static_cast<double>(f.id - id0) / static_cast<double>(id1 - id0)));
+    f.Reset(f.f->size());
+    int n = SearchKeyFramePoints(&f, *m.kf1, camera_, pyramid(), 15.0, kDescHigh, 0.8);
+    if (n < options_.min_tracked_inliers) continue;
+    if (OptimizePose(&f, camera_, pyramid()) < options_.min_tracked_inliers) continue;
+    for (FrameRel& fr : submap_frames_)
+      if (fr.rec.timestamp == f.timestamp && fr.rec.state != TrackingState::kTracking) {
+        fr.rec.state = TrackingState::kTracking;
+        fr.ref = m.kf0;
+        fr.T_c_ref = f.T_cw;
+        ++posed;
+      }
+  }
+  if (tried) spdlog::debug("front: {} of the {} frames before initialisation posed on the first map", posed, tried);
 }
 
 bool Front::TrackCurrent(bool across_gap) {

@@ -102,6 +102,9 @@ class Front {
 
  private:
   void Initialize();
+  // The frames seen while initialising, posed against the first map once it
+  // exists (FrontOptions::init_backfill); map mutex held.
+  void BackfillInitialFrames(const InitialMap& m);
   // across_gap: frames were missing since last_ (the gyro's rotation, last
   // position held, wide windows).
   bool TrackCurrent(bool across_gap = false);
@@ -129,6 +132,7 @@ class Front {
   PinholeCamera camera_;
   std::unique_ptr<FeatureExtractor> extractor_;
   MapInitializer initializer_;
+  std::vector<TrackFrame> init_frames_;  // id, timestamp, features of the frames since the reference
   KeyframeInserter inserter_;
   Relocalizer relocalizer_;
 

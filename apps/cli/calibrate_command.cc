@@ -175,6 +175,10 @@ void RegisterCalibrateCommand(CLI::App* app) {
     std::ostream& log = a->out.empty() ? std::cerr : std::cout;
     std::vector<CalibrationImage> images;
     if (!a->link.empty()) {
+      if (a->link_key.empty() == !a->link_insecure)
+        Fail("--link needs the robot's key (--link-key FILE, as source.link.key_file) or, for an "
+             "unauthenticated lab link, --link-insecure",
+             kExitBadInput);
       LinkOptions lo;
       lo.bind = a->link;
       lo.robot_id = a->robot_id;

@@ -61,6 +61,14 @@ RumiConfig LoadRumiConfig(const std::string& path) {
   return Load(LoadConfigFile(path), path);
 }
 
+RumiConfig LoadRumiConfig(const std::string& path, const std::vector<std::string>& sets) {
+  if (sets.empty()) return LoadRumiConfig(path);
+  const std::string name = path.empty() ? std::string("--set") : path + " with --set";
+  ConfigSection root = path.empty() ? LoadConfigString("{}", name) : LoadConfigFile(path);
+  ApplyConfigSets(&root, sets);
+  return Load(root, name);
+}
+
 RumiConfig LoadRumiConfigString(const std::string& yaml, const std::string& name) {
   return Load(LoadConfigString(yaml, name), name);
 }

@@ -58,6 +58,10 @@ struct RumiConfig {
 // malformed file, an unknown key in any section, a wrong type or a value out
 // of range. "" gives the defaults.
 RumiConfig LoadRumiConfig(const std::string& path);
+// The same with command-line "KEY=VALUE" overrides applied to the file's
+// keys before they are read (ApplyConfigSets): ranges and rules hold for
+// them as for the file.
+RumiConfig LoadRumiConfig(const std::string& path, const std::vector<std::string>& sets);
 RumiConfig LoadRumiConfigString(const std::string& yaml, const std::string& name = "<string>");
 
 // Every key with its value in `c` (the defaults: RumiConfig()), its range

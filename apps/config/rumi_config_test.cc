@@ -2,7 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <set>
 
 namespace rumi {
@@ -96,6 +100,49 @@ TEST(RumiConfig, DescribeListsEverySectionAndChangesAreFound) {
   b.manager_loop.rebuild_interval_s = 3;
   EXPECT_EQ(ChangedSections(a, b), (std::vector<std::string>{"log_level", "front", "manager"}));
   EXPECT_TRUE(ChangedSections(a, a).empty());
+}
+
+}  // namespace
+}  // namespace rumi
+
+namespace rumi {
+namespace {
+
+std::string SetError(const std::string& file, const std::vector<std::string>& sets) {
+  try {
+    LoadRumiConfig(file, sets);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// `--set KEY=VALUE` reaches the options through the file's reader: over the
+// file's value, with its range, its type and its unknown-key check (the
+// per-main overrides it replaced had ranges of their own, and none at all
+// for some).
+TEST(RumiConfig, CommandLineSetsAreReadAsTheFileIs) {
+  const std::string file = ::testing::TempDir() + "/sets_" + std::to_string(::getpid()) + ".yaml";
+  std::ofstream(file) << "manager:\n  rebuild_interval_s: 5\nback:\n  wait_for_producer_s: 7\n";
+  const RumiConfig c = LoadRumiConfig(
+      file, {"manager.rebuild_interval_s=0.2", "publisher.wait_for_consumers_s=0", "back.keep_workspaces=true",
+             "front.init_backfill=false"});
+  EXPECT_DOUBLE_EQ(c.manager_loop.rebuild_interval_s, 0.2);  // over the file's 5
+  EXPECT_DOUBLE_EQ(c.back.wait_for_producer_s, 7);           // the file's, untouched
+  EXPECT_DOUBLE_EQ(c.publisher.wait_for_consumers_s, 0);
+  EXPECT_TRUE(c.back.keep_workspaces);
+  EXPECT_FALSE(c.front.init_backfill);
+  // Without a file: over the defaults.
+  EXPECT_DOUBLE_EQ(LoadRumiConfig("", {"manager.rebuild_max_duty=0.5"}).manager_loop.rebuild_max_duty, 0.5);
+  // Refused as the file's keys are, naming the key.
+  EXPECT_NE(SetError(file, {"manager.rebuild_max_duty=2"}).find("manager.rebuild_max_duty"), std::string::npos);
+  EXPECT_NE(SetError(file, {"manager.wait_for_producers_s=86401"}).find("outside"), std::string::npos);
+  EXPECT_NE(SetError(file, {"manager.no_such=1"}).find("manager.no_such"), std::string::npos);
+  EXPECT_NE(SetError(file, {"manager.rebuild_interval_s=abc"}).find("wrong type"), std::string::npos);
+  EXPECT_NE(SetError(file, {"manager"}).find("KEY=VALUE"), std::string::npos);
+  EXPECT_NE(SetError(file, {"manager.rebuild_interval_s.x=1"}).find("not a section"), std::string::npos);
+  EXPECT_NE(SetError(file, {"manager.rebuild_interval_s=[1, 2]"}).find("single value"), std::string::npos);
+  std::remove(file.c_str());
 }
 
 }  // namespace
