@@ -338,13 +338,15 @@ FrameRecord Front::MakeRecord() const {
 
 void Front::Initialize() {
   const bool reinit = submap_id_ > first_submap_id_;  // a first map of this process can wait; a re-init cannot
-  if (options_.init_backfill) {
+  {
+    // Kept whether or not init_backfill is on, so that turning it off
+    // changes nothing else (the front's results depend on its heap layout
+    // through pointer-ordered containers). A frame older than the reference
+    // can never be used: keep what one reference can span.
     TrackFrame kept;
     kept.id = cur_.id;
     kept.timestamp = cur_.timestamp;
     kept.f = cur_.f;
-    // A frame older than the reference can never be used: keep what one
-    // reference can span.
     while (!init_frames_.empty() && cur_.id - init_frames_.front().id > options_.init_max_frames + 1)
       init_frames_.erase(init_frames_.begin());
     init_frames_.push_back(std::move(kept));
