@@ -286,6 +286,7 @@ TEST(FrameStream, AWaitingLinkStreamCallsItsIdleUpkeep) {
   StreamOpenOptions o;
   o.source.kind = "link";
   o.source.link.bind = "127.0.0.1:0";
+  o.source.link.insecure = true;  // no robot will come: nothing to authenticate
   o.camera = &cam;
   auto stream = OpenFrameStream(o);
   ASSERT_TRUE(stream->can_halt());
