@@ -70,7 +70,7 @@ const OptionSpec<FrontOptions>& FrontOptions::Spec() {
     s->Number("init_max_frames", &O::init_max_frames, AtLeast(1), AtMost(100000),
               "initialisation reference frame replaced after this many tries");
     s->Flag("init_backfill", &O::init_backfill,
-            "pose the frames between a submap's first two keyframes once it initialises (PnP on its first map)");
+            "pose the frames between the first map's two keyframes once it exists (not re-initialisations)");
     s->Number("motion_search_radius", &O::motion_search_radius, AtLeast(0.5), AtMost(500.0),
               "motion-model search radius, px at level 0");
     s->Number("local_search_radius", &O::local_search_radius, AtLeast(0.1), AtMost(100.0),

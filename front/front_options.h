@@ -30,9 +30,9 @@ struct FrontOptions {
   double init_min_parallax_deg = 2.0;
   double reinit_min_parallax_deg = 1.0;
   int init_max_frames = 30;               // ref frame replaced after this many tries
-  // Once a submap initialises, the frames between its two first keyframes
-  // get their poses too (PnP against the first map), as the reference frame
-  // does: the wait for parallax costs no trajectory.
+  // Once the first map exists, the frames between its two keyframes get
+  // their poses too (PnP against it), as the reference frame does: the
+  // wait for parallax costs no trajectory. Not for re-initialisations.
   bool init_backfill = true;
   // Tracking.
   double motion_search_radius = 15.0;     // px at level 0 (scaled by octave)
