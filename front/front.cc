@@ -395,13 +395,11 @@ void Front::Initialize() {
 // backfilled poses (never refined by a BA) cost a merge there (generated
 // drop seed 2: front#1 <-> back#0 kept 4 of 55 inliers, merged 100 -> 74.6 %).
 void Front::BackfillInitialFrames(const InitialMap& m) {
-  std::vector<TrackFrame> frames;
-  frames.swap(init_frames_);
   if (!options_.init_backfill || m.gap < 2) return;
   const int64_t id0 = m.kf0->frame_id, id1 = m.kf1->frame_id;
   const Eigen::Matrix<double, 6, 1> xi1 = m.kf1->T_cw.Log();  // kf0 is the identity
   int posed = 0, tried = 0;
-  for (TrackFrame& f : frames) {
+  for (TrackFrame& f : init_frames_) {  // Initialize clears them afterwards
     if (f.id <= id0 || f.id >= id1) continue;
     ++tried;
     // From the motion spread evenly over the gap, as the velocity is.

@@ -64,6 +64,17 @@ void Weights(const PoseGraphEdge& e, const PoseGraphOptions& o, double w[3]) {
   w[2] = sw / o.scale_sigma;
 }
 
+// Why nodes, edges and fixed nodes do not make a graph of n nodes ("" when they do).
+std::string GraphError(int n, const std::vector<PoseGraphEdge>& edges, const std::vector<int>& fixed) {
+  if (fixed.empty()) return "no fixed node: the graph's gauge (7 degrees of freedom) is free";
+  for (int f : fixed)
+    if (f < 0 || f >= n) return "fixed node " + std::to_string(f) + " is not a node";
+  for (const PoseGraphEdge& e : edges)
+    if (e.i < 0 || e.j < 0 || e.i >= n || e.j >= n || e.i == e.j || !(e.S_ij.scale() > 0))
+      return "edge " + std::to_string(e.i) + "-" + std::to_string(e.j) + " is not an edge between two nodes";
+  return "";
+}
+
 Node ToNode(const Sim3& S) { return Node{std::log(S.scale()), S.rotation(), S.translation()}; }
 Sim3 ToSim3(const Node& n) { return Sim3(std::exp(n.log_s), n.q, n.t); }
 
@@ -95,20 +106,8 @@ PoseGraphResult OptimizePoseGraph(std::vector<Sim3>* S_w, const std::vector<Pose
                                   const std::vector<int>& fixed, const PoseGraphOptions& o) {
   PoseGraphResult res;
   const int n = static_cast<int>(S_w->size());
-  if (fixed.empty()) {
-    res.message = "no fixed node: the graph's gauge (7 degrees of freedom) is free";
-    return res;
-  }
-  for (int f : fixed)
-    if (f < 0 || f >= n) {
-      res.message = "fixed node " + std::to_string(f) + " is not a node";
-      return res;
-    }
-  for (const PoseGraphEdge& e : edges)
-    if (e.i < 0 || e.j < 0 || e.i >= n || e.j >= n || e.i == e.j || !(e.S_ij.scale() > 0)) {
-      res.message = "edge " + std::to_string(e.i) + "-" + std::to_string(e.j) + " is not an edge between two nodes";
-      return res;
-    }
+  res.message = GraphError(n, edges, fixed);
+  if (!res.message.empty()) return res;
   std::vector<Node> nodes(n);
   for (int k = 0; k < n; ++k) nodes[k] = ToNode((*S_w)[k]);
   ceres::Problem::Options po;
@@ -205,9 +204,12 @@ CloseLoopResult CloseLoop(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdg
                           const std::vector<int>& fixed, const PoseGraphEdge& new_edge, const std::vector<int>& chain,
                           const PoseGraphOptions& o) {
   CloseLoopResult r;
-  const std::vector<Sim3> before = *S_w;
-  r.mean_residual_before = MeanResidual(before, edges, o);
   const int n = static_cast<int>(S_w->size());
+  std::vector<PoseGraphEdge> all = edges;
+  all.push_back(new_edge);
+  // Checked before anything reads a pose by these indices.
+  r.reason = GraphError(n, all, fixed);
+  if (!r.reason.empty()) return r;
   if (chain.size() < 2 || chain.front() != new_edge.j || chain.back() != new_edge.i) {
     r.reason = "the chain must run from the edge's j to its i";
     return r;
@@ -217,10 +219,10 @@ CloseLoopResult CloseLoop(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdg
       r.reason = "chain node " + std::to_string(k) + " is not a node";
       return r;
     }
+  const std::vector<Sim3> before = *S_w;
+  r.mean_residual_before = MeanResidual(before, edges, o);
   // Where the new edge puts its i: S_wi = S_wj * S_ij^-1.
   DistributeCorrection(S_w, chain, (*S_w)[new_edge.j] * new_edge.S_ij.Inverse());
-  std::vector<PoseGraphEdge> all = edges;
-  all.push_back(new_edge);
   r.solve = OptimizePoseGraph(S_w, all, fixed, o);
   auto reject = [&](const std::string& why) {
     *S_w = before;

@@ -45,6 +45,21 @@ bool Resolve(const std::string& hostport, sockaddr_storage* addr, socklen_t* len
   return true;
 }
 
+std::string AddrText(const void* from) {
+  const auto* a = static_cast<const sockaddr_in*>(from);
+  char host[64] = "?";
+  inet_ntop(AF_INET, &a->sin_addr, host, sizeof(host));
+  return std::string(host) + ":" + std::to_string(ntohs(a->sin_port));
+}
+
+bool SameAddr(const void* a, unsigned alen, const void* b, unsigned blen) {
+  const auto* x = static_cast<const sockaddr_in*>(a);
+  const auto* y = static_cast<const sockaddr_in*>(b);
+  return alen >= sizeof(sockaddr_in) && blen >= sizeof(sockaddr_in) && x->sin_family == y->sin_family &&
+         x->sin_port == y->sin_port && x->sin_addr.s_addr == y->sin_addr.s_addr;
+}
+
+
 }  // namespace
 
 nlohmann::json LinkStats::ToJson() const {
@@ -194,10 +209,7 @@ void LinkEndpoint::Run() {
               std::lock_guard<std::mutex> l(mu_);
               last_heartbeat_us_ = 0;  // greet it now: a robot stands until it hears the station
             }
-            char host[64] = "?";
-            inet_ntop(AF_INET, &reinterpret_cast<sockaddr_in*>(&from)->sin_addr, host, sizeof(host));
-            spdlog::info("link: robot {} at {}:{}", o_.robot_id, host,
-                         ntohs(reinterpret_cast<sockaddr_in*>(&from)->sin_port));
+            spdlog::info("link: robot {} at {}", o_.robot_id, AddrText(&from));
           }
         }
         OnDatagram(buf.data(), static_cast<size_t>(n), LinkNowUs(), &from, flen);
@@ -237,23 +249,6 @@ static rl_message Blank(uint8_t type, uint32_t id) {
   return m;
 }
 
-namespace {
-
-std::string AddrText(const void* from) {
-  const auto* a = static_cast<const sockaddr_in*>(from);
-  char host[64] = "?";
-  inet_ntop(AF_INET, &a->sin_addr, host, sizeof(host));
-  return std::string(host) + ":" + std::to_string(ntohs(a->sin_port));
-}
-
-bool SameAddr(const void* a, unsigned alen, const void* b, unsigned blen) {
-  const auto* x = static_cast<const sockaddr_in*>(a);
-  const auto* y = static_cast<const sockaddr_in*>(b);
-  return alen >= sizeof(sockaddr_in) && blen >= sizeof(sockaddr_in) && x->sin_family == y->sin_family &&
-         x->sin_port == y->sin_port && x->sin_addr.s_addr == y->sin_addr.s_addr;
-}
-
-}  // namespace
 
 // A robot asks for a session: answer with a nonce of ours under its key. The
 // answer proves nothing to us yet (a HELLO can be replayed); the session
