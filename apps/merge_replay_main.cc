@@ -29,6 +29,7 @@
 #include "common/pose_jumps.h"
 #include "common/process/process_info.h"
 #include "manager/global_trajectory.h"
+#include "manager/loop_closure.h"
 #include "manager/manager_run.h"
 #include "manager/manager_service.h"
 #include "manager/map_file.h"
@@ -218,6 +219,19 @@ int Main(int argc, char** argv) {
   auto reports = MergeAll(&map, config.manager);
   for (MergeReport& r : PlaceMergeAll(&map, config.manager)) reports.push_back(std::move(r));
   for (MergeReport& r : OdometryMergeAll(&map, config.manager)) reports.push_back(std::move(r));
+  LoopClosureState loop_state;
+  const LoopClosureReport loops = CloseLoops(&map, config.manager, &loop_state);
+  std::cout << fmt::format("loop closure: {} keyframes searched, {} candidates verified, {} detections, {} loops "
+                           "closed, {} keyframes moved, detect {:.2f} s, close {:.2f} s\n",
+                           loops.keyframes_queried, loops.candidates_verified, loops.detections, loops.closed,
+                           loops.keyframes_moved, loops.seconds_detect, loops.seconds_close);
+  for (const LoopReport& l : loops.loops)
+    std::cout << fmt::format("loop {} kf {} ({:.2f} s) -> {} kf {} ({:.2f} s): support={} inliers={}/{} closed={} "
+                             "shift={:.4f} ({:.1f} % of depth) rot={:.2f}deg scale={:+.4f} reason=\"{}\"\n",
+                             ToString(l.edge.query_submap), l.edge.query_keyframe, NsToSeconds(l.edge.query_time),
+                             ToString(l.edge.match_submap), l.edge.match_keyframe, NsToSeconds(l.edge.match_time),
+                             l.support, l.edge.inliers, l.edge.matches, l.closed, l.shift, 100 * l.shift_ratio,
+                             l.rotation_deg, l.scale_change, l.reason);
   for (const MergeReport& r : reports) {
     std::cout << fmt::format(
         "{} + {}: merged={} keyframe_pairs={} frame_pairs={} common_points={} inliers={} inlier_ratio={:.3f} "

@@ -66,7 +66,8 @@ std::string FormatDaemonStatus(const nlohmann::json& st, bool alive) {
   o << "  tracking   " << Get(f, "state") << " in submap " << Get(f, "submap") << "; frames " << Get(f, "frames")
     << ", tracked " << Get(f, "tracked") << ", skipped " << Get(f, "skipped") << "\n";
   o << "  submaps    " << Get(m, "submaps_front", "0") << " front, " << Get(m, "submaps_back", "0") << " back, "
-    << Get(m, "components", "0") << " component(s); merges " << Get(m, "merges", "0") << "; manager "
+    << Get(m, "components", "0") << " component(s); merges " << Get(m, "merges", "0") << ", loops closed "
+    << Get(m, "loops", "0") << "; manager "
     << Get(m, "state") << ", " << Get(m, "rebuilds", "0") << " rebuilds (last " << Get(m, "last_rebuild_s")
     << " s)\n";
   o << "  back       queue " << Get(b, "queue", "0") << ", built " << Get(b, "built", "0") << ", failed "
@@ -132,6 +133,7 @@ std::string DaemonStatusCsv(const nlohmann::json& st, bool header) {
   col("submaps_back", Get(m, "submaps_back", ""));
   col("components", Get(m, "components", ""));
   col("merges", Get(m, "merges", ""));
+  col("loops", Get(m, "loops", ""));
   col("rebuilds", Get(m, "rebuilds", ""));
   col("last_rebuild_s", Get(m, "last_rebuild_s", ""));
   col("windows_built", Get(b, "built", ""));

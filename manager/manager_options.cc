@@ -105,6 +105,28 @@ const OptionSpec<ManagerOptions>& ManagerOptions::Spec() {
               "odometry merge: rotation residual");
     s->Number("odometry_max_gap_s", &O::odometry_max_gap_s, AtLeast(0.0), AtMost(1e6),
               "odometry merge: longest gap joined, s");
+    s->Flag("loop_closure", &O::loop_closure, "find loops by place recognition and close them in the pose graph");
+    s->Number("loop_min_gap_s", &O::loop_min_gap_s, Above(0.0), AtMost(1e6),
+              "loop closure: a candidate is at least this much older, s");
+    s->Number("loop_candidates", &O::loop_candidates, AtLeast(1), AtMost(100), "loop closure: candidates verified");
+    s->Number("loop_min_score_ratio", &O::loop_min_score_ratio, AtLeast(0.0), AtMost(10.0),
+              "loop closure: candidate score / the score with the neighbour keyframe");
+    s->Number("loop_max_hamming", &O::loop_max_hamming, AtLeast(0), AtMost(256), "loop closure: descriptor distance");
+    s->Number("loop_ratio", &O::loop_ratio, Above(0.0), AtMost(1.0), "loop closure: nearest / runner-up");
+    s->Number("loop_window", &O::loop_window, AtLeast(0), AtMost(100),
+              "loop closure: the candidate's neighbour keyframes each side matched with it");
+    s->Number("loop_ransac_ratio", &O::loop_ransac_ratio, Above(0.0), AtMost(1.0),
+              "loop closure: RANSAC inlier distance / the candidate's median depth");
+    s->Number("loop_min_inliers", &O::loop_min_inliers, AtLeast(3), AtMost(1000000), "loop closure: inliers");
+    s->Number("loop_pnp_px", &O::loop_pnp_px, Above(0.0), AtMost(100.0), "loop closure: PnP reprojection threshold, px");
+    s->Number("loop_min_consistent", &O::loop_min_consistent, AtLeast(1), AtMost(100),
+              "loop closure: keyframes that agree on a loop");
+    s->Number("loop_group_s", &O::loop_group_s, Above(0.0), AtMost(1e6),
+              "loop closure: the agreeing keyframes lie within this of each other, s");
+    s->Number("loop_translation_sigma", &O::loop_translation_sigma, Above(0.0), AtMost(10.0),
+              "loop closure: pose-graph translation sigma / median scene depth");
+    s->Number("loop_merge_edge_weight", &O::loop_merge_edge_weight, Above(0.0), AtMost(1.0),
+              "loop closure: weight of the graph's edges across submaps (1: a submap's own tracking)");
     return s;
   }();
   return *spec;

@@ -147,6 +147,38 @@ struct ManagerOptions {
   double odometry_max_residual = 0.15;
   double odometry_max_rotation_deg = 3.0;
   double odometry_max_gap_s = 2.0;
+  // Loop closure (manager/loop_closure.h): every front keyframe looks for
+  // earlier front keyframes of its component, at least loop_min_gap_s older,
+  // in the place index (bag of words; candidates scoring at least
+  // loop_min_score_ratio x its score with its neighbour keyframe, the best
+  // loop_candidates). A candidate is verified by descriptor matches
+  // (loop_max_hamming, loop_ratio) between the keyframe's points and those
+  // of the candidate and its loop_window neighbours each side, then a RANSAC
+  // Sim(3) within loop_ransac_ratio x the candidate's median depth, then the
+  // query camera placed on the inliers by PnP RANSAC within loop_pnp_px,
+  // each with at least loop_min_inliers inliers. A loop needs loop_min_consistent
+  // keyframes within loop_group_s of each other that agree on it; it is
+  // closed through the Sim(3) pose graph (pose_graph.h), which refuses an
+  // edge the rest of the graph disagrees with.
+  bool loop_closure = true;
+  double loop_min_gap_s = 10.0;
+  int loop_candidates = 3;
+  double loop_min_score_ratio = 0.75;
+  int loop_max_hamming = 50;
+  double loop_ratio = 0.8;
+  int loop_window = 2;
+  double loop_ransac_ratio = 0.03;
+  int loop_min_inliers = 30;
+  double loop_pnp_px = 3.0;  // then PnP RANSAC of the query camera on them
+  int loop_min_consistent = 3;
+  double loop_group_s = 3.0;
+  // The pose graph's translation sigma, as a share of the median scene depth
+  // (its rotation and scale sigmas: PoseGraphOptions).
+  double loop_translation_sigma = 0.01;
+  // The weight (information scale) of the graph's edge between the last
+  // keyframe of a submap and the next submap's first: 1 for an edge of a
+  // submap's own tracking.
+  double loop_merge_edge_weight = 0.01;
 
   // The keys of the `manager:` section (ReadOptions(root.Child("manager"), &o)).
   static const OptionSpec<ManagerOptions>& Spec();

@@ -98,6 +98,7 @@ nlohmann::json StatusJson(const ManagerService& service, const char* state) {
           {"submaps_back", st.submaps_back},
           {"components", st.components},
           {"merges", st.merges},
+          {"loops", st.loops.closed},
           {"messages", st.messages_front + st.messages_back},
           {"rebuilds", st.rebuilds},
           {"last_rebuild_s", st.last_rebuild_seconds},

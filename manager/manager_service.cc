@@ -390,6 +390,21 @@ bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel,
   stats_.front_submap_upto_end = front_upto_end;
   for (MergeReport& r : OdometryMergeAll(&map, options_.manager)) stats_.reports.push_back(std::move(r));
   time(&phases.odometry);
+  {
+    // The received submaps come as they arrived; the base as an earlier
+    // rebuild left it, loop corrections applied.
+    std::vector<bool> fresh(map.size(), false);
+    for (size_t i = 0; i < map.size(); ++i) fresh[i] = received_.count(map.Key(int(i))) > 0;
+    stats_.loops = CloseLoops(&map, options_.manager, &loop_state_, &fresh, cancel);
+  }
+  if (abandoned()) return false;
+  for (const LoopReport& l : stats_.loops.loops)
+    spdlog::info("manager: loop {} kf {} -> {} kf {} ({} keyframes agree, {} inliers): {} ({:.3f}, {:.1f} % of the depth, "
+                 "{:.2f} deg)",
+                 ToString(l.edge.query_submap), l.edge.query_keyframe, ToString(l.edge.match_submap),
+                 l.edge.match_keyframe, l.support, l.edge.inliers, l.closed ? "closed" : "refused: " + l.reason,
+                 l.shift, 100 * l.shift_ratio, l.rotation_deg);
+  time(&phases.loops);
   stats_.merges_replayed = merge_memo_.hits();
   stats_.merge_attempts = int(stats_.reports.size());
   for (const auto& r : stats_.reports) {
@@ -431,9 +446,10 @@ bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel,
   if (on_rebuilt) on_rebuilt();
   const bool saved = WriteOutputs(why, map_files);
   const ManagerStats::Phases& p = stats_.last_rebuild_phases;
-  spdlog::info("manager: rebuild {} phases (s): copy {:.2f}, merge {:.2f}, place {:.2f}, odometry {:.2f}, culling {:.2f}, "
-               "save raw {:.2f}, save map {:.2f}, other outputs {:.2f}",
-               stats_.rebuilds, p.copy, p.merge, p.place, p.odometry, p.culling, p.save_raw, p.save_map, p.outputs);
+  spdlog::info("manager: rebuild {} phases (s): copy {:.2f}, merge {:.2f}, place {:.2f}, odometry {:.2f}, loops {:.2f}, "
+               "culling {:.2f}, save raw {:.2f}, save map {:.2f}, other outputs {:.2f}",
+               stats_.rebuilds, p.copy, p.merge, p.place, p.odometry, p.loops, p.culling, p.save_raw, p.save_map,
+               p.outputs);
   return saved;
 }
 
@@ -528,7 +544,8 @@ bool ManagerService::WriteStats(std::string* why) const {
   j["last_map_save_seconds"] = stats_.last_map_save_seconds;
   const ManagerStats::Phases& p = stats_.last_rebuild_phases;
   j["last_rebuild_phases_s"] = {{"copy", p.copy},         {"merge", p.merge},       {"place", p.place},
-                                {"odometry", p.odometry}, {"culling", p.culling},   {"save_raw", p.save_raw},
+                                {"odometry", p.odometry}, {"loops", p.loops},       {"culling", p.culling},
+                                {"save_raw", p.save_raw},
                                 {"save_map", p.save_map}, {"outputs", p.outputs}};
   j["journal_reloaded"] = stats_.journal_reloaded;
   j["last_save"] = stats_.last_save;
@@ -540,6 +557,33 @@ bool ManagerService::WriteStats(std::string* why) const {
   j["revisit_points_fused"] = stats_.culling.revisit_fused;
   j["revisit_keyframes_placed"] = stats_.culling.revisit_keyframes_placed;
   j["revisit_submaps_replayed"] = stats_.culling.revisit_submaps_replayed;
+  {
+    const LoopClosureReport& l = stats_.loops;
+    nlohmann::json loops = nlohmann::json::array();
+    for (const LoopReport& r : l.loops)
+      loops.push_back({{"query", ToString(r.edge.query_submap)},
+                       {"query_keyframe", r.edge.query_keyframe},
+                       {"query_time_s", NsToSeconds(r.edge.query_time)},
+                       {"match", ToString(r.edge.match_submap)},
+                       {"match_keyframe", r.edge.match_keyframe},
+                       {"match_time_s", NsToSeconds(r.edge.match_time)},
+                       {"inliers", r.edge.inliers},
+                       {"matches", r.edge.matches},
+                       {"support", r.support},
+                       {"closed", r.closed},
+                       {"reason", r.reason},
+                       {"shift", r.shift},
+                       {"shift_ratio", r.shift_ratio},
+                       {"rotation_deg", r.rotation_deg},
+                       {"scale_change", r.scale_change}});
+    j["loop_closures"] = l.closed;
+    j["loop_detections"] = l.detections;
+    j["loop_keyframes_queried"] = l.keyframes_queried;
+    j["loop_candidates_verified"] = l.candidates_verified;
+    j["loop_keyframes_moved"] = l.keyframes_moved;
+    j["loop_seconds"] = {{"detect", l.seconds_detect}, {"close", l.seconds_close}};
+    j["loops"] = loops;
+  }
   j["map_file"] = options_.MapPath();
   nlohmann::json comps = nlohmann::json::array();
   const std::vector<int> roots = map_.ComponentsBySize();

@@ -25,8 +25,9 @@
 #include "common/submap.h"
 #include "manager/global_map.h"
 #include "manager/grid/grid_builder.h"
-#include "manager/map_grid.h"
+#include "manager/loop_closure.h"
 #include "manager/manager_options.h"
+#include "manager/map_grid.h"
 #include "manager/merge.h"
 #include "manager/merge_memo.h"
 #include "manager/place_merge.h"
@@ -74,12 +75,13 @@ struct ManagerStats {
   // Where the last rebuild's time went (seconds): the copy of the inputs,
   // the merges (back, place, odometry), the culling, and the writes.
   struct Phases {
-    double copy = 0, merge = 0, place = 0, odometry = 0, culling = 0;
+    double copy = 0, merge = 0, place = 0, odometry = 0, loops = 0, culling = 0;
     double save_raw = 0, save_map = 0, outputs = 0;  // outputs: trajectories, grid, stats
   } last_rebuild_phases;
   std::string grid;  // the last grid's summary, or why there is none
   std::vector<MergeReport> reports;  // of the last rebuild (rejections included)
   CullingReport culling;
+  LoopClosureReport loops;  // of the last rebuild
   // Per back submap received by this process: when it arrived and when it
   // was first in one component with a front submap (system clock, ns; 0 not
   // yet). With the front's wall_s column this gives `rumi eval run` its
@@ -167,6 +169,7 @@ class ManagerService {
   std::map<SubmapKey, uint64_t> received_fp_;
   PlaceMergeMemo place_memo_;  // place-merge rejections, kept across rebuilds
   MergeMemo merge_memo_;       // merges of unchanged submaps, replayed
+  LoopClosureState loop_state_;  // place index and keyframe searches, across rebuilds
   RevisitMemo revisit_memo_;   // revisit-fusion links of unchanged submaps
   GlobalMap map_;  // current product
   bool dirty_ = false;

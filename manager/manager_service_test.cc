@@ -13,6 +13,7 @@
 
 #include "common/timestamp.h"
 #include "manager/map_file.h"
+#include "manager/synthetic_walk.h"
 #include "manager/test_scenario.h"
 
 namespace rumi {
@@ -642,6 +643,58 @@ TEST(ManagerService, CopyWithoutKeepsComponentsAndFusedLinks) {
   const GlobalMap all = CopyWithout(map, {});
   EXPECT_EQ(all.fused().size(), map.fused().size());
   EXPECT_TRUE(all.Connected(0, 2));
+}
+
+
+// merged.txt's positions against the walk's truth after a Sim(3) fit.
+double MergedAte(const TempDir& dir, const Walk& w) {
+  const std::vector<TumRow> rows = ReadTum(dir / "merged.txt");
+  std::vector<Eigen::Vector3d> est, gt;
+  for (size_t k = 0; k < rows.size() && k < w.T_wc_true.size(); ++k) {
+    est.push_back(rows[k].p);
+    gt.push_back(w.T_wc_true[k].translation());
+  }
+  return rows.size() == w.T_wc_true.size() ? UmeyamaAlign(est, gt, true).rmse : 1e9;
+}
+
+TEST(ManagerService, ALoopIsClosedAtEachRebuildTheSameWay) {
+  std::mt19937 rng(5);
+  WalkOptions wo;
+  wo.pose = RoomPose;
+  const Walk w = MakeWalk(Room(&rng), SceneDescriptors(3000, &rng), wo);
+  TempDir off_dir, dir;
+  std::string why;
+  {
+    ManagerServiceOptions o = Options(off_dir);
+    o.manager.loop_closure = false;
+    ManagerService off(o);
+    ASSERT_TRUE(off.Start(&why)) << why;
+    off.AddSubmap(w.submap);
+    ASSERT_TRUE(off.Rebuild(&why)) << why;
+    EXPECT_EQ(off.stats().loops.closed, 0);
+  }
+  ManagerService svc(Options(dir));
+  ASSERT_TRUE(svc.Start(&why)) << why;
+  svc.AddSubmap(w.submap);
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_GE(svc.stats().loops.closed, 1);
+  const double before = MergedAte(off_dir, w), after = MergedAte(dir, w);
+  EXPECT_LT(after, 0.5 * before) << before << " -> " << after;
+  const nlohmann::json j = ReadJson(dir / "manager_stats.json");
+  EXPECT_GE(j.at("loop_closures").get<int>(), 1);
+  ASSERT_FALSE(j.at("loops").empty());
+  EXPECT_EQ(j.at("loops")[0].at("query").get<std::string>(), "front#0");
+  EXPECT_TRUE(j.at("last_rebuild_phases_s").contains("loops"));
+  const std::vector<TumRow> first = ReadTum(dir / "merged.txt");
+  // The submap sent again (a resend): the rebuild starts from it raw and
+  // closes the same loops from the searches it kept, to the same map.
+  svc.AddSubmap(w.submap);
+  ASSERT_TRUE(svc.Rebuild(&why)) << why;
+  EXPECT_EQ(svc.stats().loops.keyframes_queried, 0);
+  EXPECT_EQ(svc.stats().loops.closed, j.at("loop_closures").get<int>());
+  const std::vector<TumRow> second = ReadTum(dir / "merged.txt");
+  ASSERT_EQ(second.size(), first.size());
+  for (size_t k = 0; k < first.size(); ++k) EXPECT_LT((second[k].p - first[k].p).norm(), 1e-9);
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 
 #include <nlohmann/json.hpp>
 
@@ -150,6 +151,19 @@ std::shared_ptr<const MapSnapshot> SnapshotMaker::Make(const ManagerService& ser
     } else if (!r.merged && r.keyframe_pairs > 0 && rejections_.insert(key).second) {
       s.events.push_back({"rejected", key.first, key.second, Sim3(), r.reason});
     }
+  }
+  for (const LoopReport& l : st.loops.loops) {
+    if (!l.closed) continue;
+    const std::string q = ToString(l.edge.query_submap), m = ToString(l.edge.match_submap);
+    if (!loops_.insert(q + ":" + std::to_string(l.edge.query_keyframe) + ">" + m + ":" +
+                       std::to_string(l.edge.match_keyframe))
+             .second)
+      continue;
+    char detail[160];
+    std::snprintf(detail, sizeof(detail), "keyframe %lld -> %lld, %d inliers, %d agree, moved %.3f (%.1f %% of depth), %.2f deg",
+                  static_cast<long long>(l.edge.query_keyframe), static_cast<long long>(l.edge.match_keyframe),
+                  l.edge.inliers, l.support, l.shift, 100 * l.shift_ratio, l.rotation_deg);
+    s.events.push_back({"loop", q, m, l.edge.S_mq, detail});
   }
   const int culled = st.culling.keyframes_before - st.culling.keyframes_after;
   if (culled != culled_ && st.rebuilds > 0) {

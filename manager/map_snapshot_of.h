@@ -29,6 +29,7 @@ class SnapshotMaker {
   int64_t seq_ = 0;
   std::set<std::string> submaps_;
   std::set<std::pair<std::string, std::string>> merges_, rejections_;
+  std::set<std::string> loops_;  // closed loops announced (query keyframe > match keyframe)
   int culled_ = -1;
   std::string last_save_;
   SnapshotStatus last_;  // of the last snapshot

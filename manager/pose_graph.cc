@@ -3,6 +3,7 @@
 #include <ceres/ceres.h>
 
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <set>
 
@@ -130,7 +131,7 @@ PoseGraphResult OptimizePoseGraph(std::vector<Sim3>* S_w, const std::vector<Pose
     auto* cost = new ceres::AutoDiffCostFunction<EdgeCost, 7, 1, 4, 3, 1, 4, 3>(new EdgeCost(e.S_ij, w[0], w[1], w[2]));
     Node& a = nodes[e.i];
     Node& b = nodes[e.j];
-    problem.AddResidualBlock(cost, o.loss == "trivial" ? nullptr : &loss, &a.log_s, a.q.coeffs().data(), a.t.data(),
+    problem.AddResidualBlock(cost, o.loss == "trivial" || !e.robust ? nullptr : &loss, &a.log_s, a.q.coeffs().data(), a.t.data(),
                              &b.log_s, b.q.coeffs().data(), b.t.data());
     used.insert(e.i);
     used.insert(e.j);
@@ -202,7 +203,7 @@ double MeanResidual(const std::vector<Sim3>& S_w, const std::vector<PoseGraphEdg
 
 CloseLoopResult CloseLoop(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdge>& edges,
                           const std::vector<int>& fixed, const PoseGraphEdge& new_edge, const std::vector<int>& chain,
-                          const PoseGraphOptions& o) {
+                          const PoseGraphOptions& o, const std::vector<int>& followers) {
   CloseLoopResult r;
   const int n = static_cast<int>(S_w->size());
   std::vector<PoseGraphEdge> all = edges;
@@ -214,15 +215,19 @@ CloseLoopResult CloseLoop(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdg
     r.reason = "the chain must run from the edge's j to its i";
     return r;
   }
-  for (int k : chain)
-    if (k < 0 || k >= n) {
-      r.reason = "chain node " + std::to_string(k) + " is not a node";
-      return r;
-    }
+  for (const auto* list : {&chain, &followers})
+    for (int k : *list)
+      if (k < 0 || k >= n) {
+        r.reason = "chain or follower node " + std::to_string(k) + " is not a node";
+        return r;
+      }
   const std::vector<Sim3> before = *S_w;
   r.mean_residual_before = MeanResidual(before, edges, o);
   // Where the new edge puts its i: S_wi = S_wj * S_ij^-1.
   DistributeCorrection(S_w, chain, (*S_w)[new_edge.j] * new_edge.S_ij.Inverse());
+  // What lies beyond the moving end takes its whole correction.
+  const Sim3 C = (*S_w)[chain.back()] * before[chain.back()].Inverse();
+  for (int k : followers) (*S_w)[size_t(k)] = C * before[size_t(k)];
   r.solve = OptimizePoseGraph(S_w, all, fixed, o);
   auto reject = [&](const std::string& why) {
     *S_w = before;
@@ -234,9 +239,14 @@ CloseLoopResult CloseLoop(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdg
   r.mean_residual_after = MeanResidual(*S_w, edges, o);
   for (int k : r.solve.outlier_edges) {
     if (k == static_cast<int>(edges.size())) return reject("the new edge disagrees with the graph (an outlier)");
-    if (PoseGraphResidual(before, edges[k], o).norm() <= o.outlier_factor * o.loss_scale)
-      return reject("edge " + std::to_string(edges[k].i) + "-" + std::to_string(edges[k].j) +
-                    " (" + PoseGraphEdgeKindName(edges[k].kind) + "), consistent before, is an outlier with it");
+    const double was = PoseGraphResidual(before, edges[k], o).norm();
+    if (was <= o.outlier_factor * o.loss_scale) {
+      char why[200];
+      std::snprintf(why, sizeof(why), "edge %d-%d (%s), consistent before (%.2f), is an outlier with it (%.2f)",
+                    edges[k].i, edges[k].j, PoseGraphEdgeKindName(edges[k].kind), was,
+                    PoseGraphResidual(*S_w, edges[k], o).norm());
+      return reject(why);
+    }
   }
   if (r.mean_residual_after > o.max_mean_residual)
     return reject("the graph's edges strain to " + std::to_string(r.mean_residual_after) + " (whitened, mean) with it");

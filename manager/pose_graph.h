@@ -6,9 +6,8 @@
 // Optimised with Ceres under a robust loss, so one wrong edge cannot bend the
 // map: its residual stays large and it is reported as an outlier.
 //
-// docs/manager.md, "Pose graph". The step of #51 that closes loops; the
-// manager does not call it yet (planned: after each verified loop edge, off
-// the ingest path, with a global BA after it).
+// docs/manager.md, "Pose graph". Loop closure (loop_closure.h) calls it for
+// each verified loop.
 #include <string>
 #include <vector>
 
@@ -24,6 +23,12 @@ struct PoseGraphEdge {
   Sim3 S_ij;         // measured: p_i = S_ij * p_j
   double weight = 1.0;  // information scale: 1 for a keyframe-to-keyframe edge of the map's own BA
   PoseGraphEdgeKind kind = PoseGraphEdgeKind::kCovisibility;
+  // Under the robust loss, else plain least squares. Loop closure
+  // (loop_closure.h) uses least squares throughout: under a robust loss a
+  // long chain's cheapest answer to a large right correction is to break at
+  // one edge (a real 23 s loop: one edge at 254 sigma) or to give up the
+  // loop edge, rather than bend a little everywhere.
+  bool robust = true;
 };
 
 struct PoseGraphOptions {
@@ -86,10 +91,12 @@ struct CloseLoopResult {
 // correction is spread along chain (from new_edge.j's side to new_edge.i),
 // the graph solved, and the edge kept only if the graph stays consistent
 // (PoseGraphOptions::max_mean_residual, no old edge an outlier, the new one
-// not an outlier). Rejected: *S_w is as it was.
+// not an outlier). Followers (the nodes past the moving end, say the
+// keyframes after the one that closed the loop) take the moving end's whole
+// correction before the solve. Rejected: *S_w is as it was.
 CloseLoopResult CloseLoop(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdge>& edges,
                           const std::vector<int>& fixed, const PoseGraphEdge& new_edge, const std::vector<int>& chain,
-                          const PoseGraphOptions& o = {});
+                          const PoseGraphOptions& o = {}, const std::vector<int>& followers = {});
 
 // How a point expressed in world coordinates moves with its node: the point
 // was p_w under S_w_old and is S_w_new * S_w_old^-1 * p_w now.

@@ -1,0 +1,102 @@
+#pragma once
+// Loop closure (#51): a front keyframe that sees a place an earlier keyframe
+// of its component mapped is a measurement of the drift accumulated between
+// them. As ORB-SLAM does: candidates from the place index (bag of words over
+// every keyframe), verified by descriptor matches and a RANSAC Sim(3) over
+// the matched 3D points, accepted when several neighbouring keyframes agree,
+// then closed in a Sim(3) pose graph over the component's front keyframes
+// (pose_graph.h: the correction spread along the walk, a robust solve, the
+// edge refused when the rest of the graph disagrees). The points follow
+// their reference keyframe, the tracked frames their nearest keyframe, and
+// back submaps the front keyframe nearest in time.
+//
+// The manager rebuilds the map from the received submaps; what a keyframe's
+// search found is a fact about two keyframes in their own submap frames, so
+// it is searched once (LoopClosureState keeps it) and the loops are closed
+// again at each rebuild from those measurements.
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "common/geometry.h"
+#include "manager/global_map.h"
+#include "manager/manager_options.h"
+#include "manager/place_index.h"
+
+namespace rumi {
+
+struct LoopDetection {
+  SubmapKey query_submap, match_submap;
+  int64_t query_keyframe = -1, match_keyframe = -1;
+  Timestamp query_time = 0, match_time = 0;
+  Sim3 S_mq;  // query submap frame -> match submap frame, as found
+  // The same as a relation of the two cameras (p_q = S_qm * p_m, camera
+  // frames, with scale): what the graph's loop edge measures. It stays true
+  // when a correction later moves either submap's keyframes and points
+  // together, as S_mq does not.
+  Sim3 S_qm;
+  int matches = 0, inliers = 0;
+  double score = 0;  // bag-of-words
+};
+
+// One loop of a rebuild: its best detection and what closing it did.
+struct LoopReport {
+  LoopDetection edge;
+  int support = 0;         // agreeing keyframes
+  double shift = 0;        // how far it moved the query keyframe (global units)
+  double shift_ratio = 0;  // ... over the scene depth there
+  double rotation_deg = 0, scale_change = 0;
+  bool closed = false;     // the graph took it (else `reason`)
+  std::string reason;
+};
+
+struct LoopClosureReport {
+  int keyframes_queried = 0;  // this rebuild (new keyframes)
+  int candidates_verified = 0;
+  int detections = 0;  // verified, over every keyframe of the map
+  std::vector<LoopReport> loops;
+  int closed = 0;
+  int keyframes_moved = 0;
+  double seconds_detect = 0, seconds_close = 0;
+};
+
+// Kept by the manager across rebuilds.
+class LoopClosureState {
+ public:
+  PlaceIndex index;
+  // Per queried front keyframe (submap, keyframe id): what its search found.
+  std::map<std::pair<SubmapKey, int64_t>, std::vector<LoopDetection>> searched;
+  // Each front keyframe's pose as its submap came (before any loop
+  // correction), in its submap's frame: the graph is built from these at
+  // every rebuild, so closing the same loops again gives the same map
+  // instead of correcting a corrected map once more.
+  std::map<std::pair<SubmapKey, int64_t>, Se3> raw_pose;
+  // Index key of a keyframe (the place index keys by int64).
+  int64_t Handle(const SubmapKey& s, int64_t keyframe);
+  const std::pair<SubmapKey, int64_t>& Keyframe(int64_t handle) const { return handles_[size_t(handle)]; }
+
+ private:
+  std::map<std::pair<SubmapKey, int64_t>, int64_t> handle_of_;
+  std::vector<std::pair<SubmapKey, int64_t>> handles_;
+};
+
+// Searches the front keyframes not searched yet, then closes every loop of
+// every component (no-op with options.loop_closure off). fresh[i]: submap i
+// is as it came, no correction applied (nullptr: all are); the others
+// (the manager's base, corrected by an earlier rebuild) are solved from the
+// raw poses kept in *state. *cancel: stops between keyframes; the map is
+// then as it was.
+LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& options, LoopClosureState* state,
+                             const std::vector<bool>* fresh = nullptr, const std::atomic<bool>* cancel = nullptr);
+
+// The verification of one candidate (exposed for tests): descriptor matches
+// between keyframe q of submap Q and the points of keyframe m of submap M
+// and its options.loop_window neighbours each side, then the RANSAC Sim(3).
+// False (and why) when it does not hold.
+bool VerifyLoop(const Submap& Q, int q, const Submap& M, int m, const ManagerOptions& options, LoopDetection* out,
+                std::string* why = nullptr);
+
+}  // namespace rumi
