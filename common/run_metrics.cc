@@ -226,6 +226,30 @@ std::string FormatRunMetricsJson(const RunMetricsReport& r) {
     j["merges_harmful"] = harmful;
     j["merges_rejected_harmful"] = rejected_harmful;
   }
+  if (r.loop_audit_done) {
+    nlohmann::json audit = nlohmann::json::array();
+    int closed = 0, harmful = 0;
+    for (const LoopAuditRow& l : r.loop_audit) {
+      closed += l.closed;
+      harmful += l.harmful;
+      nlohmann::json row = {{"query", l.query},
+                            {"query_keyframe", l.query_keyframe},
+                            {"query_time_s", l.query_time_s},
+                            {"match", l.match},
+                            {"match_keyframe", l.match_keyframe},
+                            {"match_time_s", l.match_time_s},
+                            {"closed", l.closed},
+                            {"rotation_error_deg", OrNull(l.rotation_error_deg)},
+                            {"direction_error_deg", OrNull(l.direction_error_deg)},
+                            {"right", l.right},
+                            {"harmful", l.harmful}};
+      if (!l.note.empty()) row["note"] = l.note;
+      audit.push_back(row);
+    }
+    j["loop_audit"] = audit;
+    j["loops_closed"] = closed;
+    j["loops_harmful"] = harmful;
+  }
   if (r.loss_to_merge) {
     const LossToMergeSummary sum = SummarizeLossToMerge(*r.loss_to_merge);
     nlohmann::ordered_json per = nlohmann::ordered_json::array();

@@ -70,6 +70,20 @@ struct MergeAuditRow {
   std::string note;      // why the figures are missing, if they are
 };
 
+// One loop the manager found (manager/loop_audit.h judges it): its measured
+// relation of the two cameras against the ground truth's.
+struct LoopAuditRow {
+  std::string query, match;  // "front#3"
+  int64_t query_keyframe = -1, match_keyframe = -1;
+  double query_time_s = 0, match_time_s = 0;
+  bool closed = false;
+  std::optional<double> rotation_error_deg;   // measured vs true relative rotation
+  std::optional<double> direction_error_deg;  // of the translation between the cameras (>= 1/5 of the depth apart)
+  bool right = false;    // rotation within 5 deg and direction (when measured) within 20 deg
+  bool harmful = false;  // closed and not right
+  std::string note;      // why the figures are missing, if they are
+};
+
 // One tracking loss and how long its frames took to be part of the map
 // (common/loss_to_merge.h computes it).
 struct LossToMerge {
@@ -104,6 +118,9 @@ struct RunMetricsReport {
   // attempts that got a Sim(3)) and of harmful accepted merges.
   std::vector<MergeAuditRow> merge_audit;
   bool merge_audit_done = false;
+  // Every loop of the manager's last rebuild, judged the same way.
+  std::vector<LoopAuditRow> loop_audit;
+  bool loop_audit_done = false;
   // Every loss after the first tracked frame, with its loss-to-merge time;
   // not computed (null in metrics.json) without the back or the wall times.
   std::optional<std::vector<LossToMerge>> loss_to_merge;

@@ -459,6 +459,7 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
       lr.rotation_deg = RotationAngle(C.rotation()) * 180.0 / M_PI;
       lr.scale_change = C.scale() - 1.0;
       lr.shift_ratio = best.depth > 0 ? lr.shift / best.depth : 0;
+      lr.depth = best.depth / map->ToGlobal(best.qs).scale();
       rep.closed += lr.closed;
       rep.loops.push_back(std::move(lr));
     }

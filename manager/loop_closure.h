@@ -49,6 +49,7 @@ struct LoopReport {
   double shift = 0;        // how far it moved the query keyframe (global units)
   double shift_ratio = 0;  // ... over the scene depth there
   double rotation_deg = 0, scale_change = 0;
+  double depth = 0;        // scene depth at the query keyframe, in its submap's units
   bool closed = false;     // the graph took it (else `reason`)
   std::string reason;
 };

@@ -572,6 +572,8 @@ bool ManagerService::WriteStats(std::string* why) const {
                        {"support", r.support},
                        {"closed", r.closed},
                        {"reason", r.reason},
+                       {"S_qm", Sim3ToJson(r.edge.S_qm)},
+                       {"depth", r.depth},
                        {"shift", r.shift},
                        {"shift_ratio", r.shift_ratio},
                        {"rotation_deg", r.rotation_deg},

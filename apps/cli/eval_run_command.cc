@@ -34,6 +34,7 @@
 #include "ipc/segments.h"
 #include "apps/cli/commands.h"
 #include "manager/map_file.h"
+#include "manager/loop_audit.h"
 #include "manager/merge_audit.h"
 
 namespace rumi::cli {
@@ -225,6 +226,17 @@ void AuditRunMerges(const fs::path& manager_dir, const Trajectory& ground_truth,
     return;
   }
   report->merge_audit_done = true;
+  try {
+    report->loop_audit = AuditLoops(stats.string(), ground_truth);
+    report->loop_audit_done = true;
+    int loops_harmful = 0;
+    for (const LoopAuditRow& l : report->loop_audit) loops_harmful += l.harmful;
+    if (loops_harmful > 0)
+      report->warnings.push_back(std::to_string(loops_harmful) +
+                                 " closed loop(s) disagree with the ground truth (metrics.json loop_audit)");
+  } catch (const std::exception& e) {
+    spdlog::warn("no loop audit: {}", e.what());
+  }
   int harmful = 0;
   for (const MergeAuditRow& m : report->merge_audit) harmful += m.accepted && m.harmful;
   if (harmful > 0)
