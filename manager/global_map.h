@@ -5,7 +5,9 @@
 // <-> front B share one frame although A and B share no image), and the
 // fused duplicate points. Merging changes Sim(3)s and welded poses only.
 #include <cstdint>
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/geometry.h"
@@ -28,6 +30,34 @@ struct FusedPoint {
   int64_t dup_point = -1;
   int kept = -1;
   int64_t kept_point = -1;
+};
+
+// A loop that loop closure (loop_closure.h) found: front keyframe
+// `query_keyframe` of one submap sees the place keyframe `match_keyframe`
+// of an earlier one (or its own) mapped.
+struct LoopDetection {
+  SubmapKey query_submap, match_submap;
+  int64_t query_keyframe = -1, match_keyframe = -1;
+  Timestamp query_time = 0, match_time = 0;
+  Sim3 S_mq;  // query submap frame -> match submap frame, as found
+  // The same as a relation of the two cameras (p_q = S_qm * p_m, camera
+  // frames, with scale): what the graph's loop edge measures. It stays true
+  // when a correction later moves either submap's keyframes and points
+  // together, as S_mq does not.
+  Sim3 S_qm;
+  int matches = 0, inliers = 0;
+  double score = 0;  // bag-of-words
+};
+
+// What loop closure keeps across rebuilds and in the map file, so that a
+// restarted manager closes the same loops without searching again: each
+// front keyframe's raw pose (in its submap's frame, before any loop
+// correction; the graph is built from these) and what each keyframe's
+// search found.
+struct LoopMemory {
+  std::map<std::pair<SubmapKey, int64_t>, Se3> raw_pose;
+  std::map<std::pair<SubmapKey, int64_t>, std::vector<LoopDetection>> searched;
+  bool empty() const { return raw_pose.empty() && searched.empty(); }
 };
 
 class GlobalMap {
@@ -69,6 +99,8 @@ class GlobalMap {
 
   std::vector<FusedPoint>& fused() { return fused_; }
   const std::vector<FusedPoint>& fused() const { return fused_; }
+  LoopMemory& loops() { return loops_; }
+  const LoopMemory& loops() const { return loops_; }
 
   // Restores raw state (used by the map file loader).
   void SetParent(int i, int parent) { parent_[i] = parent; }
@@ -78,6 +110,7 @@ class GlobalMap {
   std::vector<Entry> entries_;
   mutable std::vector<int> parent_;
   std::vector<FusedPoint> fused_;
+  LoopMemory loops_;
 };
 
 }  // namespace rumi

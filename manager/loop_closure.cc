@@ -187,13 +187,13 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
       const bool is_fresh = !fresh || s >= fresh->size() || (*fresh)[s];
       for (const Keyframe& kf : S.keyframes) {
         const std::pair<SubmapKey, int64_t> key{map->Key(int(s)), kf.id};
-        const auto it = state->raw_pose.find(key);
-        raw[key] = !is_fresh && it != state->raw_pose.end() ? it->second : kf.T_wc();
+        const auto it = state->memory.raw_pose.find(key);
+        raw[key] = !is_fresh && it != state->memory.raw_pose.end() ? it->second : kf.T_wc();
       }
     }
-    for (const auto& [key, T] : state->raw_pose)
+    for (const auto& [key, T] : state->memory.raw_pose)
       if (present.count(key.first)) raw.emplace(key, T);
-    state->raw_pose = std::move(raw);
+    state->memory.raw_pose = std::move(raw);
   }
   auto t0 = std::chrono::steady_clock::now();
   const int n = int(map->size());
@@ -239,10 +239,10 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
       for (size_t k = 0; k < S.keyframes.size(); ++k) {
         const Keyframe& kf = S.keyframes[k];
         const auto key = std::make_pair(map->Key(s), kf.id);
-        if (state->searched.count(key)) continue;
+        if (state->memory.searched.count(key)) continue;
         if (cancel && cancel->load()) return rep;  // nothing changed yet
         ++rep.keyframes_queried;
-        std::vector<LoopDetection>& found = state->searched[key];
+        std::vector<LoopDetection>& found = state->memory.searched[key];
         const BowVector& bow = state->index.Bow(state->Handle(key.first, key.second));
         // ORB-SLAM's bar: a loop candidate must look at least as much like
         // this keyframe as its own neighbour does (here a share of it).
@@ -301,18 +301,18 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
     l.s = it->second;
     l.k = prepared(l.s).idx.Keyframe(id);
     if (l.k >= 0) return l;
-    const auto raw = state->raw_pose.find({key, id});
-    if (raw == state->raw_pose.end()) return Living{};
+    const auto raw = state->memory.raw_pose.find({key, id});
+    if (raw == state->memory.raw_pose.end()) return Living{};
     const auto& kfs = map->submap(l.s).keyframes;
     const auto near = std::lower_bound(kfs.begin(), kfs.end(), t,
                                        [](const Keyframe& kf, Timestamp x) { return kf.timestamp < x; });
     size_t k = size_t(near - kfs.begin());
     if (k == kfs.size() || (k > 0 && t - kfs[k - 1].timestamp <= kfs[k].timestamp - t)) k = k == 0 ? 0 : k - 1;
     l.k = int(k);
-    l.T = PoseSim3(state->raw_pose.at({key, kfs[k].id})).Inverse() * PoseSim3(raw->second);
+    l.T = PoseSim3(state->memory.raw_pose.at({key, kfs[k].id})).Inverse() * PoseSim3(raw->second);
     return l;
   };
-  for (const auto& [key, list] : state->searched)
+  for (const auto& [key, list] : state->memory.searched)
     for (const LoopDetection& d : list) {
       const Living q = living(d.query_submap, d.query_keyframe, d.query_time);
       const Living m = living(d.match_submap, d.match_keyframe, d.match_time);
@@ -342,7 +342,7 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
       node_of[{nodes[i].submap, nodes[i].keyframe}] = int(i);
       const Keyframe& kf = map->submap(nodes[i].submap).keyframes[size_t(nodes[i].keyframe)];
       const Sim3& S_gl = map->ToGlobal(nodes[i].submap);
-      S_w[i] = S_gl * PoseSim3(state->raw_pose.at({map->Key(nodes[i].submap), kf.id}));
+      S_w[i] = S_gl * PoseSim3(state->memory.raw_pose.at({map->Key(nodes[i].submap), kf.id}));
       before[i] = S_gl * PoseSim3(kf.T_wc());
     }
     const std::vector<Sim3> start = S_w;
@@ -514,6 +514,7 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
     }
   }
   rep.seconds_close = SecondsSince(t0);
+  map->loops() = state->memory;
   return rep;
 }
 

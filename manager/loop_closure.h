@@ -11,8 +11,8 @@
 // back submaps the front keyframe nearest in time.
 //
 // The manager rebuilds the map from the received submaps; what a keyframe's
-// search found is a fact about two keyframes in their own submap frames, so
-// it is searched once (LoopClosureState keeps it) and the loops are closed
+// search found is a fact about two keyframes, so it is searched once
+// (LoopClosureState keeps it, the map file too) and the loops are closed
 // again at each rebuild from those measurements.
 #include <atomic>
 #include <cstdint>
@@ -27,20 +27,6 @@
 #include "manager/place_index.h"
 
 namespace rumi {
-
-struct LoopDetection {
-  SubmapKey query_submap, match_submap;
-  int64_t query_keyframe = -1, match_keyframe = -1;
-  Timestamp query_time = 0, match_time = 0;
-  Sim3 S_mq;  // query submap frame -> match submap frame, as found
-  // The same as a relation of the two cameras (p_q = S_qm * p_m, camera
-  // frames, with scale): what the graph's loop edge measures. It stays true
-  // when a correction later moves either submap's keyframes and points
-  // together, as S_mq does not.
-  Sim3 S_qm;
-  int matches = 0, inliers = 0;
-  double score = 0;  // bag-of-words
-};
 
 // One loop of a rebuild: its best detection and what closing it did.
 struct LoopReport {
@@ -64,17 +50,12 @@ struct LoopClosureReport {
   double seconds_detect = 0, seconds_close = 0;
 };
 
-// Kept by the manager across rebuilds.
+// Kept by the manager across rebuilds: the place index, and the memory
+// (raw poses, searches) that the map file keeps too (GlobalMap::loops()).
 class LoopClosureState {
  public:
   PlaceIndex index;
-  // Per queried front keyframe (submap, keyframe id): what its search found.
-  std::map<std::pair<SubmapKey, int64_t>, std::vector<LoopDetection>> searched;
-  // Each front keyframe's pose as its submap came (before any loop
-  // correction), in its submap's frame: the graph is built from these at
-  // every rebuild, so closing the same loops again gives the same map
-  // instead of correcting a corrected map once more.
-  std::map<std::pair<SubmapKey, int64_t>, Se3> raw_pose;
+  LoopMemory memory;
   // Index key of a keyframe (the place index keys by int64).
   int64_t Handle(const SubmapKey& s, int64_t keyframe);
   const std::pair<SubmapKey, int64_t>& Keyframe(int64_t handle) const { return handles_[size_t(handle)]; }
@@ -88,8 +69,9 @@ class LoopClosureState {
 // every component (no-op with options.loop_closure off). fresh[i]: submap i
 // is as it came, no correction applied (nullptr: all are); the others
 // (the manager's base, corrected by an earlier rebuild) are solved from the
-// raw poses kept in *state. *cancel: stops between keyframes; the map is
-// then as it was.
+// raw poses kept in *state. Leaves a copy of state->memory in
+// map->loops() (for the map file). *cancel: stops between keyframes; the
+// map is then as it was.
 LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& options, LoopClosureState* state,
                              const std::vector<bool>* fresh = nullptr, const std::atomic<bool>* cancel = nullptr);
 

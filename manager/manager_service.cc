@@ -166,6 +166,9 @@ bool ManagerService::Start(std::string* why) {
   if (fs::exists(path)) {
     if (LoadGlobalMap(path, &map_, &err)) {
       stats_.base_submaps = int(map_.size());
+      // The loops it closed, and the raw poses its corrected keyframes
+      // came with: the next rebuild closes them again without a search.
+      loop_state_.memory = map_.loops();
       spdlog::info("manager: reloaded {} ({} submaps)", path, map_.size());
     } else if (!MoveAside(path, err, why)) {
       return false;

@@ -695,6 +695,18 @@ TEST(ManagerService, ALoopIsClosedAtEachRebuildTheSameWay) {
   const std::vector<TumRow> second = ReadTum(dir / "merged.txt");
   ASSERT_EQ(second.size(), first.size());
   for (size_t k = 0; k < first.size(); ++k) EXPECT_LT((second[k].p - first[k].p).norm(), 1e-9);
+  // A restarted manager: the map file holds the loop memory (raw poses,
+  // searches), so its first rebuild closes the same loops without a search.
+  ManagerService restarted(Options(dir));
+  ASSERT_TRUE(restarted.Start(&why)) << why;
+  EXPECT_FALSE(restarted.map().loops().empty());
+  restarted.AddSubmap(w.submap);  // the front resends it
+  ASSERT_TRUE(restarted.Rebuild(&why)) << why;
+  EXPECT_EQ(restarted.stats().loops.keyframes_queried, 0);
+  EXPECT_EQ(restarted.stats().loops.closed, j.at("loop_closures").get<int>());
+  const std::vector<TumRow> third = ReadTum(dir / "merged.txt");
+  ASSERT_EQ(third.size(), first.size());
+  for (size_t k = 0; k < first.size(); ++k) EXPECT_LT((third[k].p - first[k].p).norm(), 1e-9);
 }
 
 }  // namespace

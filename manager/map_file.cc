@@ -43,6 +43,47 @@ class Bytes {
   std::vector<uint8_t> b_;
 };
 
+void PutSim3(Bytes* b, const Sim3& S) {
+  const double v[8] = {S.scale(),        S.rotation().x(),    S.rotation().y(),    S.rotation().z(),
+                       S.rotation().w(), S.translation().x(), S.translation().y(), S.translation().z()};
+  b->PutBytes(v, sizeof(v));
+}
+
+void PutKey(Bytes* b, const SubmapKey& k) {
+  b->Put<uint8_t>(uint8_t(k.source));
+  b->Put<int64_t>(k.id);
+}
+
+void PutLoops(Bytes* b, const LoopMemory& m) {
+  b->Put<uint64_t>(m.raw_pose.size());
+  for (const auto& [key, T] : m.raw_pose) {
+    PutKey(b, key.first);
+    b->Put<int64_t>(key.second);
+    const double v[7] = {T.rotation().x(),    T.rotation().y(),    T.rotation().z(),   T.rotation().w(),
+                         T.translation().x(), T.translation().y(), T.translation().z()};
+    b->PutBytes(v, sizeof(v));
+  }
+  b->Put<uint64_t>(m.searched.size());
+  for (const auto& [key, list] : m.searched) {
+    PutKey(b, key.first);
+    b->Put<int64_t>(key.second);
+    b->Put<uint64_t>(list.size());
+    for (const LoopDetection& d : list) {
+      PutKey(b, d.query_submap);
+      b->Put<int64_t>(d.query_keyframe);
+      b->Put<int64_t>(d.query_time);
+      PutKey(b, d.match_submap);
+      b->Put<int64_t>(d.match_keyframe);
+      b->Put<int64_t>(d.match_time);
+      PutSim3(b, d.S_mq);
+      PutSim3(b, d.S_qm);
+      b->Put<int32_t>(d.matches);
+      b->Put<int32_t>(d.inliers);
+      b->Put<double>(d.score);
+    }
+  }
+}
+
 std::string Errno(const std::string& what, const std::string& path) {
   return what + " '" + path + "': " + std::strerror(errno);
 }
@@ -62,8 +103,8 @@ namespace {
 // union-find parent.
 template <typename SubmapAt, typename Sim3At, typename ParentAt>
 bool SaveEntries(size_t n, const SubmapAt& submap, const Sim3At& sim3, const ParentAt& parent,
-                 const std::vector<FusedPoint>& fused, const std::string& path, std::string* why,
-                 const SubmapSerializer& serializer) {
+                 const std::vector<FusedPoint>& fused, const LoopMemory& loops, const std::string& path,
+                 std::string* why, const SubmapSerializer& serializer) {
   Bytes file;
   file.PutBytes(kMagic, sizeof(kMagic));
   file.Put<uint32_t>(kGlobalMapFileVersion);
@@ -77,10 +118,7 @@ bool SaveEntries(size_t n, const SubmapAt& submap, const Sim3At& sim3, const Par
   const size_t body_at = file.data().size();
   file.Put<uint64_t>(n);
   for (size_t i = 0; i < n; ++i) {
-    const Sim3& S = sim3(i);
-    const double v[8] = {S.scale(),           S.rotation().x(),    S.rotation().y(),    S.rotation().z(),
-                         S.rotation().w(),    S.translation().x(), S.translation().y(), S.translation().z()};
-    file.PutBytes(v, sizeof(v));
+    PutSim3(&file, sim3(i));
     file.Put<int64_t>(parent(i));
     const std::vector<uint8_t> rec = serializer.Encode(submap(i));
     file.Put<uint64_t>(rec.size());
@@ -93,6 +131,7 @@ bool SaveEntries(size_t n, const SubmapAt& submap, const Sim3At& sim3, const Par
     file.Put<int64_t>(f.dup_point);
     file.Put<int64_t>(f.kept_point);
   }
+  PutLoops(&file, loops);
   uint8_t* data = file.data().data();
   const uint64_t body_size = file.data().size() - body_at;
   const uint64_t checksum = Checksum64(data + body_at, body_size);
@@ -108,7 +147,7 @@ bool SaveGlobalMap(const GlobalMap& map, const std::string& path, std::string* w
   return SaveEntries(
       map.size(), [&](size_t i) -> const Submap& { return map.submap(int(i)); },
       [&](size_t i) -> const Sim3& { return map.ToGlobal(int(i)); }, [&](size_t i) { return map.RawParent(int(i)); },
-      map.fused(), path, why, serializer);
+      map.fused(), map.loops(), path, why, serializer);
 }
 
 bool SaveSubmaps(const std::vector<const Submap*>& submaps, const std::string& path, std::string* why,
@@ -116,9 +155,69 @@ bool SaveSubmaps(const std::vector<const Submap*>& submaps, const std::string& p
   static const Sim3 identity;
   return SaveEntries(
       submaps.size(), [&](size_t i) -> const Submap& { return *submaps[i]; },
-      [&](size_t) -> const Sim3& { return identity; }, [](size_t i) { return int64_t(i); }, {}, path, why,
-      serializer);
+      [&](size_t) -> const Sim3& { return identity; }, [](size_t i) { return int64_t(i); }, {}, LoopMemory(), path,
+      why, serializer);
 }
+
+namespace {
+
+Sim3 GetSim3(BufferReader* b, const char* what) {
+  double v[8];
+  for (double& x : v) x = b->Get<double>();
+  const Eigen::Quaterniond q(v[4], v[1], v[2], v[3]);
+  bool finite = true;
+  for (double x : v) finite &= std::isfinite(x);
+  if (!finite || !(v[0] > 0) || !(std::abs(q.norm() - 1.0) < 1e-6)) b->Fail(std::string(what) + ": invalid Sim(3)");
+  return Sim3(v[0], q, Eigen::Vector3d(v[5], v[6], v[7]));
+}
+
+SubmapKey GetKey(BufferReader* b) {
+  const uint8_t source = b->Get<uint8_t>();
+  if (source > uint8_t(SubmapSource::kMerged)) b->Fail("loop memory: bad submap source " + std::to_string(source));
+  SubmapKey k;
+  k.source = SubmapSource(source);
+  k.id = b->Get<int64_t>();
+  return k;
+}
+
+void ReadLoops(BufferReader* b, LoopMemory* m) {
+  const uint64_t np = b->GetCount(9 + 8 + 56, "loop raw pose");
+  for (uint64_t i = 0; i < np; ++i) {
+    const SubmapKey key = GetKey(b);
+    const int64_t kf = b->Get<int64_t>();
+    double v[7];
+    for (double& x : v) x = b->Get<double>();
+    const Eigen::Quaterniond q(v[3], v[0], v[1], v[2]);
+    bool finite = true;
+    for (double x : v) finite &= std::isfinite(x);
+    if (!finite || !(std::abs(q.norm() - 1.0) < 1e-6)) b->Fail("loop raw pose: invalid pose");
+    m->raw_pose[{key, kf}] = Se3::FromUnitQuaternion(q, Eigen::Vector3d(v[4], v[5], v[6]));
+  }
+  const uint64_t ns = b->GetCount(9 + 8 + 8, "loop search");
+  for (uint64_t i = 0; i < ns; ++i) {
+    const SubmapKey key = GetKey(b);
+    const int64_t kf = b->Get<int64_t>();
+    const uint64_t nd = b->GetCount(2 * (9 + 16) + 128 + 16, "loop detection");
+    std::vector<LoopDetection>& list = m->searched[{key, kf}];
+    for (uint64_t k = 0; k < nd; ++k) {
+      LoopDetection d;
+      d.query_submap = GetKey(b);
+      d.query_keyframe = b->Get<int64_t>();
+      d.query_time = b->Get<int64_t>();
+      d.match_submap = GetKey(b);
+      d.match_keyframe = b->Get<int64_t>();
+      d.match_time = b->Get<int64_t>();
+      d.S_mq = GetSim3(b, "loop detection");
+      d.S_qm = GetSim3(b, "loop detection");
+      d.matches = b->Get<int32_t>();
+      d.inliers = b->Get<int32_t>();
+      d.score = b->Get<double>();
+      list.push_back(d);
+    }
+  }
+}
+
+}  // namespace
 
 bool LoadGlobalMap(const std::string& path, GlobalMap* map, std::string* why,
                    const SubmapSerializer& serializer) {
@@ -134,8 +233,8 @@ bool LoadGlobalMap(const std::string& path, GlobalMap* map, std::string* why,
       r.Fail("not a rumi global map (bad magic)");
     r.Take(sizeof(kMagic));
     const uint32_t version = r.Get<uint32_t>();
-    if (version != kGlobalMapFileVersion)
-      r.Fail("unsupported version " + std::to_string(version) + " (expected " +
+    if (version < 1 || version > kGlobalMapFileVersion)
+      r.Fail("unsupported version " + std::to_string(version) + " (this build reads 1 to " +
              std::to_string(kGlobalMapFileVersion) + ")");
     r.Get<uint32_t>();
     const uint64_t name_len = r.GetCount(1, "serializer name");
@@ -192,6 +291,7 @@ bool LoadGlobalMap(const std::string& path, GlobalMap* map, std::string* why,
       if (f.dup < 0 || uint64_t(f.dup) >= n || f.kept < 0 || uint64_t(f.kept) >= n) b.Fail("fused point: bad submap");
       loaded.fused().push_back(f);
     }
+    if (version >= 2) ReadLoops(&b, &loaded.loops());
     if (b.remaining() != 0) b.Fail(std::to_string(b.remaining()) + " unexpected trailing bytes");
     *map = std::move(loaded);
     return true;

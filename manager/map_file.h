@@ -8,7 +8,13 @@
 //   | u64 Checksum64(body) | body
 //   body: u64 submaps, each { Sim3 (s, qx qy qz qw, tx ty tz as f64) | i64
 //   union-find parent | u64 size + submap record from the serializer },
-//   u64 fused, each { i32 dup, i32 kept, i64 dup point, i64 kept point }.
+//   u64 fused, each { i32 dup, i32 kept, i64 dup point, i64 kept point },
+//   and from version 2 the loop memory (GlobalMap::loops()):
+//   u64 raw poses, each { key | i64 keyframe | Se3 (qx qy qz qw, tx ty tz) },
+//   u64 searched keyframes, each { key | i64 keyframe | u64 n, each
+//   { key | i64 keyframe | i64 time (query), key | i64 keyframe | i64 time
+//   (match) | Sim3 S_mq | Sim3 S_qm | i32 matches | i32 inliers | f64 score } };
+//   key = { u8 source | i64 id }. Version 1 files (no loop memory) load.
 // Every count and length is checked against the bytes that remain.
 #include <cstdint>
 #include <string>
@@ -18,7 +24,7 @@
 
 namespace rumi {
 
-constexpr uint32_t kGlobalMapFileVersion = 1;
+constexpr uint32_t kGlobalMapFileVersion = 2;
 
 // Pluggable submap record format. The name is stored in the file; a file
 // written with another serializer is refused.

@@ -3,9 +3,11 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
+#include "ipc/byte_io.h"
 #include "manager/merge.h"
 #include "manager/test_scenario.h"
 
@@ -67,6 +69,90 @@ TEST_F(MapFileTest, RoundTrip) {
   // Saving over an existing file leaves no temporary behind.
   ASSERT_TRUE(SaveGlobalMap(loaded, path_, &why)) << why;
   EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), 1);
+}
+
+// Loop closure's memory travels with the map (version 2), so a restarted
+// manager closes the same loops without searching again.
+TEST_F(MapFileTest, LoopMemoryRoundTrip) {
+  LoopMemory& m = map_.loops();
+  const SubmapKey f0{SubmapSource::kFront, 1}, f1{SubmapSource::kFront, 2};
+  m.raw_pose[{f0, 7}] = Se3(Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY())), Eigen::Vector3d(1, 2, 3));
+  m.raw_pose[{f1, 4}] = Se3();
+  LoopDetection d;
+  d.query_submap = f1;
+  d.query_keyframe = 4;
+  d.query_time = 1030 * kNsPerSecond + 5;
+  d.match_submap = f0;
+  d.match_keyframe = 7;
+  d.match_time = 1000 * kNsPerSecond;
+  d.S_mq = Sim3(0.7, Eigen::Quaterniond(Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitZ())), Eigen::Vector3d(0.1, 0, 2));
+  d.S_qm = Sim3(1.3, Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 0.5, 0));
+  d.matches = 80;
+  d.inliers = 61;
+  d.score = 0.25;
+  m.searched[{f1, 4}] = {d};
+  m.searched[{f1, 5}] = {};  // searched, nothing found
+  std::string why;
+  ASSERT_TRUE(SaveGlobalMap(map_, path_, &why)) << why;
+  GlobalMap loaded;
+  ASSERT_TRUE(LoadGlobalMap(path_, &loaded, &why)) << why;
+  const LoopMemory& l = loaded.loops();
+  ASSERT_EQ(l.raw_pose.size(), 2u);
+  EXPECT_EQ(l.raw_pose.at({f0, 7}).Matrix(), m.raw_pose.at({f0, 7}).Matrix());
+  ASSERT_EQ(l.searched.size(), 2u);
+  EXPECT_TRUE(l.searched.at({f1, 5}).empty());
+  ASSERT_EQ(l.searched.at({f1, 4}).size(), 1u);
+  const LoopDetection& e = l.searched.at({f1, 4})[0];
+  EXPECT_EQ(e.query_submap, f1);
+  EXPECT_EQ(e.match_submap, f0);
+  EXPECT_EQ(e.query_keyframe, 4);
+  EXPECT_EQ(e.match_keyframe, 7);
+  EXPECT_EQ(e.query_time, d.query_time);
+  EXPECT_EQ(e.match_time, d.match_time);
+  EXPECT_TRUE(e.S_mq.Matrix().isApprox(d.S_mq.Matrix(), 1e-15));
+  EXPECT_TRUE(e.S_qm.Matrix().isApprox(d.S_qm.Matrix(), 1e-15));
+  EXPECT_EQ(e.inliers, 61);
+  EXPECT_EQ(e.matches, 80);
+  EXPECT_EQ(e.score, 0.25);
+
+  // A detection with a broken Sim(3) makes the file refused, the map kept.
+  m.searched[{f1, 4}][0].S_qm = Sim3(-1.0, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
+  ASSERT_TRUE(SaveGlobalMap(map_, path_, &why)) << why;
+  GlobalMap kept;
+  kept.AddSubmap(s_.back.submap);
+  EXPECT_FALSE(LoadGlobalMap(path_, &kept, &why));
+  EXPECT_NE(why.find("invalid Sim(3)"), std::string::npos) << why;
+  EXPECT_EQ(kept.size(), 1u);
+}
+
+// A map written before loop closure (version 1: no loop memory) still loads.
+TEST_F(MapFileTest, VersionOneMapsLoad) {
+  std::string why;
+  ASSERT_TRUE(SaveGlobalMap(map_, path_, &why)) << why;  // no loops: two zero counts at the end
+  std::vector<char> bytes = ReadAll();
+  // Rewrite as version 1: without the two counts, size and checksum patched.
+  bytes.resize(bytes.size() - 16);
+  const uint32_t v1 = 1;
+  std::memcpy(bytes.data() + 8, &v1, sizeof(v1));
+  uint64_t name_len = 0;
+  std::memcpy(&name_len, bytes.data() + 16, sizeof(name_len));
+  const size_t size_at = 24 + name_len, body_at = size_at + 16;
+  const uint64_t body_size = bytes.size() - body_at;
+  const uint64_t checksum = Checksum64(reinterpret_cast<const uint8_t*>(bytes.data()) + body_at, body_size);
+  std::memcpy(bytes.data() + size_at, &body_size, sizeof(body_size));
+  std::memcpy(bytes.data() + size_at + 8, &checksum, sizeof(checksum));
+  WriteAll(bytes);
+  GlobalMap loaded;
+  ASSERT_TRUE(LoadGlobalMap(path_, &loaded, &why)) << why;
+  EXPECT_EQ(loaded.size(), map_.size());
+  EXPECT_TRUE(loaded.loops().empty());
+  EXPECT_EQ(loaded.fused().size(), map_.fused().size());
+  // A version from the future is refused by name.
+  const uint32_t v9 = 9;
+  std::memcpy(bytes.data() + 8, &v9, sizeof(v9));
+  WriteAll(bytes);
+  EXPECT_FALSE(LoadGlobalMap(path_, &loaded, &why));
+  EXPECT_NE(why.find("unsupported version 9"), std::string::npos) << why;
 }
 
 // The manager's raw submaps, saved from where they are: the same file as a
