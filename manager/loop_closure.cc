@@ -10,6 +10,7 @@
 
 #include <opencv2/calib3d.hpp>
 
+#include "common/logging.h"
 #include "common/orb_extractor.h"
 #include "common/timestamp.h"
 #include "manager/front_point_search.h"
@@ -414,19 +415,23 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
         groups.push_back({i});
     }
     bool changed = false;
-    for (const std::vector<size_t>& g : groups) {
-      std::set<std::pair<int, int>> queries;
-      for (size_t i : g) queries.insert({found[i].qs, found[i].qk});
-      if (int(queries.size()) < o.loop_min_consistent) continue;
-      const Found& best = found[*std::max_element(
-          g.begin(), g.end(), [&](size_t a, size_t b) { return found[a].d.inliers < found[b].d.inliers; })];
-      LoopReport lr;
-      lr.edge = best.d;
-      lr.support = int(queries.size());
-      const int qi = node_of[{best.qs, best.qk}], mi = node_of[{best.ms, best.mk}];
+    // A loop decided at an earlier rebuild is not tried again: one that the
+    // graph took is put back in (its correction spread, then one solve for
+    // all of them), one it refused stays out. Only new loops are closed one
+    // by one, at most loop_max_solves a rebuild: a looped hour has hundreds
+    // of loops, and closing each again with a solve of the whole graph took
+    // 31 s of a rebuild at 2,000 keyframes (a daemon's watchdog killed it).
+    int solves = 0;
+    bool spread = false;
+    std::vector<std::pair<size_t, LoopReport>> reports;  // by group, in order
+    const auto group_key = [&](const std::vector<size_t>& g) {
+      const Found& f = found[g.front()];
+      return LoopClosureState::GroupKey{map->Key(f.qs), f.d.query_keyframe, map->Key(f.ms), f.d.match_keyframe};
+    };
+    const auto edge_of = [&](const Found& best) {
       PoseGraphEdge e;
-      e.i = qi;
-      e.j = mi;
+      e.i = node_of[{best.qs, best.qk}];
+      e.j = node_of[{best.ms, best.mk}];
       e.kind = PoseGraphEdgeKind::kLoop;
       e.S_ij = best.d.S_qm;
       // Plain least squares, as ORB-SLAM's essential graph: a right loop
@@ -435,34 +440,83 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
       // after the solve instead: spread over the walk it strains the walk's
       // own edges beyond their sigmas (CloseLoop's check).
       e.robust = false;
-      const Sim3 q_before = S_w[size_t(qi)];
-      if (PoseGraphResidual(S_w, e, gopt).norm() <= gopt.outlier_factor * gopt.loss_scale) {
-        edges.push_back(e);
-        lr.closed = true;
-        lr.reason = "already consistent";
-      } else if (mi >= qi) {
-        lr.reason = "the match is not older than the query";
-      } else {
-        std::vector<int> chain, followers;
-        for (int k = mi; k <= qi; ++k) chain.push_back(k);
-        for (int k = qi + 1; k < int(nodes.size()); ++k) followers.push_back(k);
-        const CloseLoopResult r = CloseLoop(&S_w, edges, {0}, e, chain, gopt, followers);
-        lr.closed = r.accepted;
-        lr.reason = r.reason;
-        if (r.accepted) {
-          edges.push_back(e);
-          changed = true;
-        }
+      return e;
+    };
+    const auto chain_of = [&](const PoseGraphEdge& e, std::vector<int>* chain, std::vector<int>* followers) {
+      for (int k = e.j; k <= e.i; ++k) chain->push_back(k);
+      for (int k = e.i + 1; k < int(nodes.size()); ++k) followers->push_back(k);
+    };
+    for (int pass = 0; pass < 2; ++pass) {  // 0: loops decided before, 1: new ones
+      if (pass == 1 && spread) {
+        const PoseGraphResult r = OptimizePoseGraph(&S_w, edges, {0}, gopt);
+        ++solves;
+        if (!r.ok) spdlog::warn("loop closure: the solve of the loops closed before failed: {}", r.message);
       }
-      const Sim3 C = S_w[size_t(qi)] * q_before.Inverse();
-      lr.shift = (S_w[size_t(qi)].translation() - q_before.translation()).norm();
-      lr.rotation_deg = RotationAngle(C.rotation()) * 180.0 / M_PI;
-      lr.scale_change = C.scale() - 1.0;
-      lr.shift_ratio = best.depth > 0 ? lr.shift / best.depth : 0;
-      lr.depth = best.depth / map->ToGlobal(best.qs).scale();
-      rep.closed += lr.closed;
-      rep.loops.push_back(std::move(lr));
+      for (size_t gi = 0; gi < groups.size(); ++gi) {
+        const std::vector<size_t>& g = groups[gi];
+        std::set<std::pair<int, int>> queries;
+        for (size_t i : g) queries.insert({found[i].qs, found[i].qk});
+        if (int(queries.size()) < o.loop_min_consistent) continue;
+        const auto decided = state->decided.find(group_key(g));
+        if ((pass == 0) != (decided != state->decided.end())) continue;
+        const Found& best = found[*std::max_element(
+            g.begin(), g.end(), [&](size_t a, size_t b) { return found[a].d.inliers < found[b].d.inliers; })];
+        LoopReport lr;
+        lr.edge = best.d;
+        lr.support = int(queries.size());
+        const PoseGraphEdge e = edge_of(best);
+        const Sim3 q_before = S_w[size_t(e.i)];
+        const bool consistent = PoseGraphResidual(S_w, e, gopt).norm() <= gopt.outlier_factor * gopt.loss_scale;
+        if (e.j >= e.i) {
+          lr.reason = "the match is not older than the query";
+        } else if (pass == 0) {
+          lr.closed = decided->second;
+          lr.reason = decided->second ? "closed at an earlier rebuild" : "refused at an earlier rebuild";
+          if (decided->second) {
+            if (!consistent) {
+              std::vector<int> chain, followers;
+              chain_of(e, &chain, &followers);
+              const std::vector<Sim3> was = S_w;
+              DistributeCorrection(&S_w, chain, S_w[size_t(e.j)] * e.S_ij.Inverse());
+              const Sim3 C = S_w[size_t(e.i)] * was[size_t(e.i)].Inverse();
+              for (int k : followers) S_w[size_t(k)] = C * was[size_t(k)];
+              spread = changed = true;
+            }
+            edges.push_back(e);
+          }
+        } else if (consistent) {
+          edges.push_back(e);
+          lr.closed = true;
+          lr.reason = "already consistent";
+          state->decided[group_key(g)] = true;
+        } else if (solves >= o.loop_max_solves) {
+          lr.reason = "waits for the next rebuild (loop_max_solves)";
+        } else {
+          std::vector<int> chain, followers;
+          chain_of(e, &chain, &followers);
+          const CloseLoopResult r = CloseLoop(&S_w, edges, {0}, e, chain, gopt, followers);
+          ++solves;
+          lr.closed = r.accepted;
+          lr.reason = r.reason;
+          state->decided[group_key(g)] = r.accepted;
+          if (r.accepted) {
+            edges.push_back(e);
+            changed = true;
+          }
+        }
+        const Sim3 C = S_w[size_t(e.i)] * q_before.Inverse();
+        lr.shift = (S_w[size_t(e.i)].translation() - q_before.translation()).norm();
+        lr.rotation_deg = RotationAngle(C.rotation()) * 180.0 / M_PI;
+        lr.scale_change = C.scale() - 1.0;
+        lr.shift_ratio = best.depth > 0 ? lr.shift / best.depth : 0;
+        lr.depth = best.depth / map->ToGlobal(best.qs).scale();
+        rep.closed += lr.closed;
+        reports.push_back({gi, std::move(lr)});
+      }
     }
+    std::stable_sort(reports.begin(), reports.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (auto& [gi, lr] : reports) rep.loops.push_back(std::move(lr));
     // No loop closed: the keyframes stay where they are (a base corrected
     // by an earlier rebuild keeps its correction).
     if (!changed) continue;

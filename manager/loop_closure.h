@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -56,6 +57,19 @@ class LoopClosureState {
  public:
   PlaceIndex index;
   LoopMemory memory;
+  // The loops decided (closed: true, refused: false), by their first
+  // detection's query and match keyframes: not tried again.
+  struct GroupKey {
+    SubmapKey query_submap;
+    int64_t query_keyframe;
+    SubmapKey match_submap;
+    int64_t match_keyframe;
+    bool operator<(const GroupKey& o) const {
+      return std::tie(query_submap, query_keyframe, match_submap, match_keyframe) <
+             std::tie(o.query_submap, o.query_keyframe, o.match_submap, o.match_keyframe);
+    }
+  };
+  std::map<GroupKey, bool> decided;
   // Index key of a keyframe (the place index keys by int64).
   int64_t Handle(const SubmapKey& s, int64_t keyframe);
   const std::pair<SubmapKey, int64_t>& Keyframe(int64_t handle) const { return handles_[size_t(handle)]; }

@@ -21,15 +21,13 @@ const Walk& WalkOf(int keyframes) {
   static std::map<int, std::unique_ptr<Walk>> cache;
   auto& w = cache[keyframes];
   if (!w) {
-    std::mt19937 rng(5);
     WalkOptions o;
     o.keyframes = keyframes;
-    o.pose = RoomPose;
     // A lighter drift than the test's: 10 laps of it stay a room.
     o.yaw_per_kf = 0.0005;
     o.shift_per_kf = 0.001;
     o.scale_per_kf = 0.0002;
-    w = std::make_unique<Walk>(MakeWalk(Room(&rng), SceneDescriptors(3000, &rng), o));
+    w = std::make_unique<Walk>(MakeRoomWalk(o));
   }
   return *w;
 }

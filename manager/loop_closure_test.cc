@@ -17,10 +17,8 @@ namespace rumi {
 namespace {
 
 TEST(LoopClosure, ARoomWalkedAgainIsClosedAndTheDriftCorrected) {
-  std::mt19937 rng(5);
-  WalkOptions o;
-  o.pose = RoomPose;
-  Walk w = MakeWalk(Room(&rng), SceneDescriptors(3000, &rng), o);
+  const WalkOptions o;
+  const Walk w = MakeRoomWalk(o);
   GlobalMap map;
   map.AddSubmap(w.submap);
   const double before = KeyframeAte(w, map);
@@ -76,10 +74,8 @@ TEST(LoopClosure, ARoomWalkedAgainIsClosedAndTheDriftCorrected) {
 }
 
 TEST(LoopClosure, OffDoesNothing) {
-  std::mt19937 rng(5);
-  WalkOptions o;
-  o.pose = RoomPose;
-  Walk w = MakeWalk(Room(&rng), SceneDescriptors(3000, &rng), o);
+  const WalkOptions o;
+  const Walk w = MakeRoomWalk(o);
   GlobalMap map;
   map.AddSubmap(w.submap);
   ManagerOptions mo;

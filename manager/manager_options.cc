@@ -127,6 +127,8 @@ const OptionSpec<ManagerOptions>& ManagerOptions::Spec() {
               "loop closure: pose-graph translation sigma / median scene depth");
     s->Number("loop_merge_edge_weight", &O::loop_merge_edge_weight, Above(0.0), AtMost(1.0),
               "loop closure: weight of the graph's edges across submaps (1: a submap's own tracking)");
+    s->Number("loop_max_solves", &O::loop_max_solves, AtLeast(1), AtMost(1000),
+              "loop closure: new loops closed (one solve each) per rebuild");
     return s;
   }();
   return *spec;

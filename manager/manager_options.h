@@ -179,6 +179,10 @@ struct ManagerOptions {
   // keyframe of a submap and the next submap's first: 1 for an edge of a
   // submap's own tracking.
   double loop_merge_edge_weight = 0.01;
+  // New loops closed with a solve of the whole graph per rebuild (the rest
+  // wait for the next one); loops decided before are put back with one
+  // solve for all of them.
+  int loop_max_solves = 8;
 
   // The keys of the `manager:` section (ReadOptions(root.Child("manager"), &o)).
   static const OptionSpec<ManagerOptions>& Spec();

@@ -658,10 +658,7 @@ double MergedAte(const TempDir& dir, const Walk& w) {
 }
 
 TEST(ManagerService, ALoopIsClosedAtEachRebuildTheSameWay) {
-  std::mt19937 rng(5);
-  WalkOptions wo;
-  wo.pose = RoomPose;
-  const Walk w = MakeWalk(Room(&rng), SceneDescriptors(3000, &rng), wo);
+  const Walk w = MakeRoomWalk();
   TempDir off_dir, dir;
   std::string why;
   {
@@ -692,9 +689,12 @@ TEST(ManagerService, ALoopIsClosedAtEachRebuildTheSameWay) {
   ASSERT_TRUE(svc.Rebuild(&why)) << why;
   EXPECT_EQ(svc.stats().loops.keyframes_queried, 0);
   EXPECT_EQ(svc.stats().loops.closed, j.at("loop_closures").get<int>());
+  // The loops decided at the first rebuild go back in together, with one
+  // solve instead of one each: the same map to the solver's tolerance
+  // (micrometres in a room of 1 m).
   const std::vector<TumRow> second = ReadTum(dir / "merged.txt");
   ASSERT_EQ(second.size(), first.size());
-  for (size_t k = 0; k < first.size(); ++k) EXPECT_LT((second[k].p - first[k].p).norm(), 1e-9);
+  for (size_t k = 0; k < first.size(); ++k) EXPECT_LT((second[k].p - first[k].p).norm(), 1e-4);
   // A restarted manager: the map file holds the loop memory (raw poses,
   // searches), so its first rebuild closes the same loops without a search.
   ManagerService restarted(Options(dir));

@@ -125,4 +125,11 @@ Se3 RoomPose(double t) {
   return Se3(R, c);
 }
 
+Walk MakeRoomWalk(WalkOptions o, uint32_t seed) {
+  std::mt19937 rng(seed);
+  if (!o.pose) o.pose = RoomPose;
+  std::vector<Eigen::Vector3d> room = Room(&rng);
+  return MakeWalk(room, SceneDescriptors(3000, &rng), o);
+}
+
 }  // namespace rumi

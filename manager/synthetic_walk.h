@@ -48,6 +48,9 @@ Walk MakeWalk(const std::vector<Eigen::Vector3d>& scene, std::vector<std::vector
 // walks a 1 m circle inside it looking out, a lap in 24 s.
 std::vector<Eigen::Vector3d> Room(std::mt19937* rng);
 Se3 RoomPose(double t);
+// The room walked with `o` (its path RoomPose unless it has one), scene and
+// descriptors drawn from `seed`.
+Walk MakeRoomWalk(WalkOptions o = {}, uint32_t seed = 5);
 
 // Keyframe centres of submap 0 of `map` against the walk's truth after a
 // Sim(3) fit (the keyframe ATE).
