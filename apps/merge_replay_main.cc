@@ -220,7 +220,13 @@ int Main(int argc, char** argv) {
   for (MergeReport& r : PlaceMergeAll(&map, config.manager)) reports.push_back(std::move(r));
   for (MergeReport& r : OdometryMergeAll(&map, config.manager)) reports.push_back(std::move(r));
   LoopClosureState loop_state;
-  const LoopClosureReport loops = CloseLoops(&map, config.manager, &loop_state);
+  LoopClosureReport loops = CloseLoops(&map, config.manager, &loop_state);
+  // As the manager's next rebuilds would: the loops left waiting
+  // (loop_max_solves) are closed on the map corrected so far.
+  for (int round = 0; loops.waiting > 0 && round < 1000; ++round) {
+    const std::vector<bool> fresh(map.size(), false);
+    loops = CloseLoops(&map, config.manager, &loop_state, &fresh);
+  }
   std::cout << fmt::format("loop closure: {} keyframes searched, {} candidates verified, {} detections, {} loops "
                            "closed, {} keyframes moved, detect {:.2f} s, close {:.2f} s\n",
                            loops.keyframes_queried, loops.candidates_verified, loops.detections, loops.closed,

@@ -52,12 +52,15 @@ struct LoopDetection {
 // What loop closure keeps across rebuilds and in the map file, so that a
 // restarted manager closes the same loops without searching again: each
 // front keyframe's raw pose (in its submap's frame, before any loop
-// correction; the graph is built from these) and what each keyframe's
-// search found.
+// correction; the graph is built from these), what each keyframe's search
+// found, and where the last solve put it.
 struct LoopMemory {
   std::map<std::pair<SubmapKey, int64_t>, Se3> raw_pose;
   std::map<std::pair<SubmapKey, int64_t>, std::vector<LoopDetection>> searched;
-  bool empty() const { return raw_pose.empty() && searched.empty(); }
+  // Where the last solve put each keyframe of a component with loops
+  // (global, with scale: the scale its points carry).
+  std::map<std::pair<SubmapKey, int64_t>, Sim3> solved;
+  bool empty() const { return raw_pose.empty() && searched.empty() && solved.empty(); }
 };
 
 class GlobalMap {

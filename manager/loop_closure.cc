@@ -195,6 +195,8 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
     for (const auto& [key, T] : state->memory.raw_pose)
       if (present.count(key.first)) raw.emplace(key, T);
     state->memory.raw_pose = std::move(raw);
+    for (auto it = state->memory.solved.begin(); it != state->memory.solved.end();)
+      it = present.count(it->first.first) ? std::next(it) : state->memory.solved.erase(it);
   }
   auto t0 = std::chrono::steady_clock::now();
   const int n = int(map->size());
@@ -336,15 +338,21 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
       return std::tie(a.t, a.submap, a.keyframe) < std::tie(b.t, b.submap, b.keyframe);
     });
     std::map<std::pair<int, int>, int> node_of;
-    // The graph starts from the raw poses; `before` is where the keyframes
-    // are now (an earlier rebuild may have corrected them).
+    // The graph starts from the raw poses; `before` is what the keyframe's
+    // points are in now: its raw pose in a fresh submap, else where the last
+    // solve put it, scale included (a keyframe's pose keeps no scale, its
+    // points do: taking the rigid pose there scaled the points again at
+    // every rebuild, and a map replayed in rounds ran 120 m off).
     std::vector<Sim3> S_w(nodes.size()), before(nodes.size());
     for (size_t i = 0; i < nodes.size(); ++i) {
       node_of[{nodes[i].submap, nodes[i].keyframe}] = int(i);
       const Keyframe& kf = map->submap(nodes[i].submap).keyframes[size_t(nodes[i].keyframe)];
       const Sim3& S_gl = map->ToGlobal(nodes[i].submap);
-      S_w[i] = S_gl * PoseSim3(state->memory.raw_pose.at({map->Key(nodes[i].submap), kf.id}));
-      before[i] = S_gl * PoseSim3(kf.T_wc());
+      const std::pair<SubmapKey, int64_t> key{map->Key(nodes[i].submap), kf.id};
+      S_w[i] = S_gl * PoseSim3(state->memory.raw_pose.at(key));
+      const bool is_fresh = !fresh || size_t(nodes[i].submap) >= fresh->size() || (*fresh)[size_t(nodes[i].submap)];
+      const auto solved = state->memory.solved.find(key);
+      before[i] = is_fresh || solved == state->memory.solved.end() ? S_gl * PoseSim3(kf.T_wc()) : solved->second;
     }
     const std::vector<Sim3> start = S_w;
     // Translations are whitened in each node's own units, which a monocular
@@ -422,7 +430,7 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
     // of loops, and closing each again with a solve of the whole graph took
     // 31 s of a rebuild at 2,000 keyframes (a daemon's watchdog killed it).
     int solves = 0;
-    bool spread = false;
+    bool spread = false, unsolved = false;
     std::vector<std::pair<size_t, LoopReport>> reports;  // by group, in order
     const auto group_key = [&](const std::vector<size_t>& g) {
       const Found& f = found[g.front()];
@@ -448,6 +456,18 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
     };
     for (int pass = 0; pass < 2; ++pass) {  // 0: loops decided before, 1: new ones
       if (pass == 1 && spread) {
+        // Warm start: where the last solve left each keyframe, a keyframe
+        // new since carried from the one before it by the walk's raw step.
+        // (Spreading each old loop's correction again from the raw poses
+        // and solving once put a broken front's map 120 m off.)
+        for (size_t i = 0; i < nodes.size(); ++i) {
+          const Keyframe& kf = map->submap(nodes[i].submap).keyframes[size_t(nodes[i].keyframe)];
+          const auto it = state->memory.solved.find({map->Key(nodes[i].submap), kf.id});
+          if (it != state->memory.solved.end())
+            S_w[i] = it->second;
+          else if (i > 0)
+            S_w[i] = S_w[i - 1] * (start[i - 1].Inverse() * start[i]);
+        }
         const PoseGraphResult r = OptimizePoseGraph(&S_w, edges, {0}, gopt);
         ++solves;
         if (!r.ok) spdlog::warn("loop closure: the solve of the loops closed before failed: {}", r.message);
@@ -473,15 +493,7 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
           lr.closed = decided->second;
           lr.reason = decided->second ? "closed at an earlier rebuild" : "refused at an earlier rebuild";
           if (decided->second) {
-            if (!consistent) {
-              std::vector<int> chain, followers;
-              chain_of(e, &chain, &followers);
-              const std::vector<Sim3> was = S_w;
-              DistributeCorrection(&S_w, chain, S_w[size_t(e.j)] * e.S_ij.Inverse());
-              const Sim3 C = S_w[size_t(e.i)] * was[size_t(e.i)].Inverse();
-              for (int k : followers) S_w[size_t(k)] = C * was[size_t(k)];
-              spread = changed = true;
-            }
+            spread = changed = true;
             edges.push_back(e);
           }
         } else if (consistent) {
@@ -489,8 +501,10 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
           lr.closed = true;
           lr.reason = "already consistent";
           state->decided[group_key(g)] = true;
+          unsolved = true;
         } else if (solves >= o.loop_max_solves) {
           lr.reason = "waits for the next rebuild (loop_max_solves)";
+          ++rep.waiting;
         } else {
           std::vector<int> chain, followers;
           chain_of(e, &chain, &followers);
@@ -502,6 +516,7 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
           if (r.accepted) {
             edges.push_back(e);
             changed = true;
+            unsolved = false;
           }
         }
         const Sim3 C = S_w[size_t(e.i)] * q_before.Inverse();
@@ -514,12 +529,22 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
         reports.push_back({gi, std::move(lr)});
       }
     }
+    // Edges taken as consistent since the last solve join a last one: the
+    // same graph then solves to the same map whether its loops came one by
+    // one (this rebuild) or together (the next).
+    if ((changed || spread) && unsolved) {
+      const PoseGraphResult r = OptimizePoseGraph(&S_w, edges, {0}, gopt);
+      if (!r.ok) spdlog::warn("loop closure: the last solve failed: {}", r.message);
+    }
     std::stable_sort(reports.begin(), reports.end(),
                      [](const auto& a, const auto& b) { return a.first < b.first; });
     for (auto& [gi, lr] : reports) rep.loops.push_back(std::move(lr));
     // No loop closed: the keyframes stay where they are (a base corrected
     // by an earlier rebuild keeps its correction).
     if (!changed) continue;
+    for (size_t i = 0; i < nodes.size(); ++i)
+      state->memory.solved[{map->Key(nodes[i].submap), map->submap(nodes[i].submap).keyframes[size_t(nodes[i].keyframe)].id}] =
+          S_w[i];
     // Write the corrections back: keyframes, their points, the tracked
     // frames (nearest keyframe in time), back submaps (nearest front
     // keyframe in time).
@@ -537,7 +562,17 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
       if (it == list.begin()) return *it;
       return t - nodes[size_t(*(it - 1))].t <= nodes[size_t(*it)].t - t ? *(it - 1) : *it;
     };
+    // A correction that is no correction (the same solve as at the last
+    // rebuild) is not written: a submap touched by rounding would hash anew
+    // and miss the merge and revisit memos at every rebuild.
+    const auto none = [&](int i) {
+      const Sim3& c = C[size_t(i)];
+      return std::abs(c.scale() - 1.0) < 1e-9 && RotationAngle(c.rotation()) < 1e-9 &&
+             (S_w[size_t(i)].translation() - before[size_t(i)].translation()).norm() <
+                 1e-9 * (1.0 + before[size_t(i)].translation().norm());
+    };
     for (const auto& [s, list] : nodes_of_submap) {
+      if (std::all_of(list.begin(), list.end(), none)) continue;
       Submap& S = map->submap(s);
       const Sim3 S_gl = map->ToGlobal(s), S_lg = S_gl.Inverse();
       const auto local = [&](int i) { return S_lg * C[size_t(i)] * S_gl; };
@@ -564,7 +599,8 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
       const Submap& B = map->submap(s);
       if (B.source == SubmapSource::kFront || B.keyframes.empty()) continue;
       const Timestamp mid = B.keyframes[B.keyframes.size() / 2].timestamp;
-      map->entry(s).S_gl = C[size_t(nearest(all, mid))] * map->ToGlobal(s);
+      const int k = nearest(all, mid);
+      if (!none(k)) map->entry(s).S_gl = C[size_t(k)] * map->ToGlobal(s);
     }
   }
   rep.seconds_close = SecondsSince(t0);

@@ -47,6 +47,7 @@ struct LoopClosureReport {
   int detections = 0;  // verified, over every keyframe of the map
   std::vector<LoopReport> loops;
   int closed = 0;
+  int waiting = 0;  // new loops left for the next rebuild (loop_max_solves)
   int keyframes_moved = 0;
   double seconds_detect = 0, seconds_close = 0;
 };

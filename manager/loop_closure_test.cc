@@ -63,14 +63,15 @@ TEST(LoopClosure, ARoomWalkedAgainIsClosedAndTheDriftCorrected) {
     EXPECT_LT((f.translation() - kf.translation()).norm(), 1e-9);
   }
   // A second pass over the same map finds the same and moves nothing more
-  // than rounding: the closures are already consistent.
+  // than millimetres (of a 0.45 m correction): the loops go back in, solved
+  // together instead of one by one.
   const Submap corrected = map.submap(0);
   const std::vector<bool> fresh(1, false);  // as the manager's base is
   const LoopClosureReport again = CloseLoops(&map, mo, &state, &fresh);
   EXPECT_EQ(again.keyframes_queried, 0);  // searched once
   for (size_t k = 0; k < corrected.keyframes.size(); ++k)
     EXPECT_LT((map.submap(0).keyframes[k].T_wc().translation() - corrected.keyframes[k].T_wc().translation()).norm(),
-              0.02);
+              5e-3);
 }
 
 TEST(LoopClosure, OffDoesNothing) {

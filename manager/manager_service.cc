@@ -401,12 +401,27 @@ bool ManagerService::Rebuild(std::string* why, const std::atomic<bool>* cancel,
     stats_.loops = CloseLoops(&map, options_.manager, &loop_state_, &fresh, cancel);
   }
   if (abandoned()) return false;
-  for (const LoopReport& l : stats_.loops.loops)
+  int loops_before = 0, loops_waiting = 0;
+  for (const LoopReport& l : stats_.loops.loops) {
+    // Loops decided at an earlier rebuild were logged then; waiting ones
+    // are counted.
+    if (l.reason == "closed at an earlier rebuild" || l.reason == "refused at an earlier rebuild") {
+      ++loops_before;
+      continue;
+    }
+    if (!l.closed && l.reason.rfind("waits", 0) == 0) {
+      ++loops_waiting;
+      continue;
+    }
     spdlog::info("manager: loop {} kf {} -> {} kf {} ({} keyframes agree, {} inliers): {} ({:.3f}, {:.1f} % of the depth, "
                  "{:.2f} deg)",
                  ToString(l.edge.query_submap), l.edge.query_keyframe, ToString(l.edge.match_submap),
                  l.edge.match_keyframe, l.support, l.edge.inliers, l.closed ? "closed" : "refused: " + l.reason,
                  l.shift, 100 * l.shift_ratio, l.rotation_deg);
+  }
+  if (loops_before + loops_waiting > 0)
+    spdlog::info("manager: {} loops decided at earlier rebuilds, {} waiting for the next (loop_max_solves)",
+                 loops_before, loops_waiting);
   time(&phases.loops);
   stats_.merges_replayed = merge_memo_.hits();
   stats_.merge_attempts = int(stats_.reports.size());
@@ -582,6 +597,7 @@ bool ManagerService::WriteStats(std::string* why) const {
                        {"rotation_deg", r.rotation_deg},
                        {"scale_change", r.scale_change}});
     j["loop_closures"] = l.closed;
+    j["loops_waiting"] = l.waiting;
     j["loop_detections"] = l.detections;
     j["loop_keyframes_queried"] = l.keyframes_queried;
     j["loop_candidates_verified"] = l.candidates_verified;

@@ -63,6 +63,12 @@ void PutLoops(Bytes* b, const LoopMemory& m) {
                          T.translation().x(), T.translation().y(), T.translation().z()};
     b->PutBytes(v, sizeof(v));
   }
+  b->Put<uint64_t>(m.solved.size());
+  for (const auto& [key, S] : m.solved) {
+    PutKey(b, key.first);
+    b->Put<int64_t>(key.second);
+    PutSim3(b, S);
+  }
   b->Put<uint64_t>(m.searched.size());
   for (const auto& [key, list] : m.searched) {
     PutKey(b, key.first);
@@ -192,6 +198,12 @@ void ReadLoops(BufferReader* b, LoopMemory* m) {
     for (double x : v) finite &= std::isfinite(x);
     if (!finite || !(std::abs(q.norm() - 1.0) < 1e-6)) b->Fail("loop raw pose: invalid pose");
     m->raw_pose[{key, kf}] = Se3::FromUnitQuaternion(q, Eigen::Vector3d(v[4], v[5], v[6]));
+  }
+  const uint64_t nv = b->GetCount(9 + 8 + 64, "loop solved pose");
+  for (uint64_t i = 0; i < nv; ++i) {
+    const SubmapKey key = GetKey(b);
+    const int64_t kf = b->Get<int64_t>();
+    m->solved[{key, kf}] = GetSim3(b, "loop solved pose");
   }
   const uint64_t ns = b->GetCount(9 + 8 + 8, "loop search");
   for (uint64_t i = 0; i < ns; ++i) {

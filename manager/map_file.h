@@ -11,6 +11,7 @@
 //   u64 fused, each { i32 dup, i32 kept, i64 dup point, i64 kept point },
 //   and from version 2 the loop memory (GlobalMap::loops()):
 //   u64 raw poses, each { key | i64 keyframe | Se3 (qx qy qz qw, tx ty tz) },
+//   u64 solved poses, each { key | i64 keyframe | Sim3 },
 //   u64 searched keyframes, each { key | i64 keyframe | u64 n, each
 //   { key | i64 keyframe | i64 time (query), key | i64 keyframe | i64 time
 //   (match) | Sim3 S_mq | Sim3 S_qm | i32 matches | i32 inliers | f64 score } };

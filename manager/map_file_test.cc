@@ -78,6 +78,7 @@ TEST_F(MapFileTest, LoopMemoryRoundTrip) {
   const SubmapKey f0{SubmapSource::kFront, 1}, f1{SubmapSource::kFront, 2};
   m.raw_pose[{f0, 7}] = Se3(Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY())), Eigen::Vector3d(1, 2, 3));
   m.raw_pose[{f1, 4}] = Se3();
+  m.solved[{f0, 7}] = Sim3(1.2, Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 1, 0));
   LoopDetection d;
   d.query_submap = f1;
   d.query_keyframe = 4;
@@ -99,6 +100,8 @@ TEST_F(MapFileTest, LoopMemoryRoundTrip) {
   const LoopMemory& l = loaded.loops();
   ASSERT_EQ(l.raw_pose.size(), 2u);
   EXPECT_EQ(l.raw_pose.at({f0, 7}).Matrix(), m.raw_pose.at({f0, 7}).Matrix());
+  ASSERT_EQ(l.solved.size(), 1u);
+  EXPECT_TRUE(l.solved.at({f0, 7}).Matrix().isApprox(m.solved.at({f0, 7}).Matrix(), 1e-15));
   ASSERT_EQ(l.searched.size(), 2u);
   EXPECT_TRUE(l.searched.at({f1, 5}).empty());
   ASSERT_EQ(l.searched.at({f1, 4}).size(), 1u);
@@ -128,10 +131,10 @@ TEST_F(MapFileTest, LoopMemoryRoundTrip) {
 // A map written before loop closure (version 1: no loop memory) still loads.
 TEST_F(MapFileTest, VersionOneMapsLoad) {
   std::string why;
-  ASSERT_TRUE(SaveGlobalMap(map_, path_, &why)) << why;  // no loops: two zero counts at the end
+  ASSERT_TRUE(SaveGlobalMap(map_, path_, &why)) << why;  // no loops: three zero counts at the end
   std::vector<char> bytes = ReadAll();
-  // Rewrite as version 1: without the two counts, size and checksum patched.
-  bytes.resize(bytes.size() - 16);
+  // Rewrite as version 1: without the three counts, size and checksum patched.
+  bytes.resize(bytes.size() - 24);
   const uint32_t v1 = 1;
   std::memcpy(bytes.data() + 8, &v1, sizeof(v1));
   uint64_t name_len = 0;
