@@ -12,6 +12,7 @@
 
 #include "common/logging.h"
 #include "common/orb_extractor.h"
+#include "common/stats.h"
 #include "common/timestamp.h"
 #include "manager/front_point_search.h"
 #include "manager/place_merge.h"
@@ -37,12 +38,6 @@ struct Prepared {
     for (size_t k = 0; k < s.keyframes.size(); ++k) kf_index[s.keyframes[k].id] = int(k);
   }
 };
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
 
 bool Verify(const Submap& Q, const Prepared& pq, int q, const Submap& M, const Prepared& pm, int m,
             const ManagerOptions& o, LoopDetection* out, std::string* why) {
@@ -95,7 +90,7 @@ bool Verify(const Submap& Q, const Prepared& pq, int q, const Submap& M, const P
     dst.push_back(xm[size_t(b)]);
     depth.push_back((T_cw * xm[size_t(b)]).z());
   }
-  const double d = Median(depth);
+  const double d = UpperMedian(depth);
   if (!(d > 0)) return fail("the matched points are not in front of the candidate");
   const RansacSim3Result rs = RansacSim3(src, dst, o.loop_ransac_ratio * d, o.ransac_iterations, o.ransac_seed);
   out->inliers = rs.num_inliers;
@@ -154,8 +149,6 @@ bool Verify(const Submap& Q, const Prepared& pq, int q, const Submap& M, const P
   out->S_mq = Sim3(M.keyframes[size_t(m)].T_wc()) * out->S_qm.Inverse() * Sim3(kq.T_cw);
   return true;
 }
-
-Sim3 PoseSim3(const Se3& T_wc) { return Sim3(T_wc); }
 
 // A node of a component's graph: a front keyframe.
 struct Node {
@@ -287,7 +280,7 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
       const int p = pid >= 0 ? prepared(s).idx.Point(pid) : -1;
       if (p >= 0) z.push_back((kf.T_cw * S.points[size_t(p)].position).z());
     }
-    return Median(std::move(z)) * map->ToGlobal(s).scale();
+    return UpperMedian(std::move(z)) * map->ToGlobal(s).scale();
   };
   std::map<int, std::vector<Found>> by_component;
   // A detection's keyframe, or when it was culled, the living keyframe of
@@ -312,7 +305,7 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
     size_t k = size_t(near - kfs.begin());
     if (k == kfs.size() || (k > 0 && t - kfs[k - 1].timestamp <= kfs[k].timestamp - t)) k = k == 0 ? 0 : k - 1;
     l.k = int(k);
-    l.T = PoseSim3(state->memory.raw_pose.at({key, kfs[k].id})).Inverse() * PoseSim3(raw->second);
+    l.T = Sim3(state->memory.raw_pose.at({key, kfs[k].id})).Inverse() * Sim3(raw->second);
     return l;
   };
   for (const auto& [key, list] : state->memory.searched)
@@ -349,10 +342,10 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
       const Keyframe& kf = map->submap(nodes[i].submap).keyframes[size_t(nodes[i].keyframe)];
       const Sim3& S_gl = map->ToGlobal(nodes[i].submap);
       const std::pair<SubmapKey, int64_t> key{map->Key(nodes[i].submap), kf.id};
-      S_w[i] = S_gl * PoseSim3(state->memory.raw_pose.at(key));
+      S_w[i] = S_gl * Sim3(state->memory.raw_pose.at(key));
       const bool is_fresh = !fresh || size_t(nodes[i].submap) >= fresh->size() || (*fresh)[size_t(nodes[i].submap)];
       const auto solved = state->memory.solved.find(key);
-      before[i] = is_fresh || solved == state->memory.solved.end() ? S_gl * PoseSim3(kf.T_wc()) : solved->second;
+      before[i] = is_fresh || solved == state->memory.solved.end() ? S_gl * Sim3(kf.T_wc()) : solved->second;
     }
     const std::vector<Sim3> start = S_w;
     // Translations are whitened in each node's own units, which a monocular
@@ -364,7 +357,7 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
         const double d = depth_at(nodes[i].submap, nodes[i].keyframe) / map->ToGlobal(nodes[i].submap).scale();
         if (d > 0) depth.push_back(d);
       }
-      const double d = Median(depth);
+      const double d = UpperMedian(depth);
       if (d > 0) gopt.translation_sigma = o.loop_translation_sigma * d;
     }
     // The walk: each keyframe to the next as the map has them now (within a
@@ -585,7 +578,7 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
       }
       for (FrameRecord& f : S.frames) {
         if (f.state != TrackingState::kTracking && f.state != TrackingState::kCoarse) continue;
-        const Sim3 L = local(nearest(list, f.timestamp)) * PoseSim3(f.T_wc);
+        const Sim3 L = local(nearest(list, f.timestamp)) * Sim3(f.T_wc);
         f.T_wc = Se3(L.rotation(), L.translation());
       }
       for (int i : list) {
