@@ -139,6 +139,7 @@ int Main(int argc, char** argv) {
   std::string map_path, config_path, traj_path, gt_path;
   bool no_frame_pairs = false, no_culling = false;
   int min_back_obs = 0;
+  int loop_rounds = 1000;
   double jump_ratio = 0;
   double complete_px = 0;
   app.add_option("--map", map_path, "map file to load (e.g. map.rumi.raw)")->required();
@@ -166,6 +167,9 @@ int Main(int argc, char** argv) {
                  "first drop back keyframes registered off the camera path (what back.pose_jump_ratio does)");
   app.add_option("--min-back-observations", min_back_obs,
                  "first drop back-submap points seen by fewer keyframes (what back.min_point_observations does)");
+  app.add_option("--loop-rounds", loop_rounds,
+                 "loop closure rounds at most (each as one rebuild of the manager would close them)")
+      ->check(CLI::Range(1, 100000));
   CLI11_PARSE(app, argc, argv);
 
   RumiConfig config;
@@ -223,9 +227,11 @@ int Main(int argc, char** argv) {
   LoopClosureReport loops = CloseLoops(&map, config.manager, &loop_state);
   // As the manager's next rebuilds would: the loops left waiting
   // (loop_max_solves) are closed on the map corrected so far.
-  for (int round = 0; loops.waiting > 0 && round < 1000; ++round) {
+  for (int round = 1; loops.waiting > 0 && round < loop_rounds; ++round) {
     const std::vector<bool> fresh(map.size(), false);
+    const int waiting = loops.waiting;
     loops = CloseLoops(&map, config.manager, &loop_state, &fresh);
+    if (loops.waiting >= waiting) break;  // no loop decided this round: the next would not either
   }
   std::cout << fmt::format("loop closure: {} keyframes searched, {} candidates verified, {} detections, {} loops "
                            "closed, {} keyframes moved, detect {:.2f} s, close {:.2f} s\n",
@@ -283,6 +289,11 @@ int Main(int argc, char** argv) {
                 c.keyframes_before, c.keyframes_after, c.culled_back, c.culled_front, c.back_examined,
                 config.manager.culling_min_observers, c.back_redundant_share_median,
                 config.manager.culling_redundant_ratio, c.front_points_found);
+    std::printf("revisit culled: %d by fused points, %d by loop detections; front keyframes left per submap:",
+                c.culled_revisit, c.culled_revisit_detected);
+    for (size_t i = 0; i < map.size(); ++i)
+      if (map.submap(int(i)).source == SubmapSource::kFront) std::printf(" %zu", map.submap(int(i)).keyframes.size());
+    std::printf("\n");
   }
   const int root = map.size() ? map.LargestComponent() : -1;
   const auto traj = root >= 0 ? ComputeGlobalTrajectory(map, root) : std::vector<GlobalPose>();

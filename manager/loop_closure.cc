@@ -418,10 +418,11 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
     bool changed = false;
     // A loop decided at an earlier rebuild is not tried again: one that the
     // graph took is put back in (its correction spread, then one solve for
-    // all of them), one it refused stays out. Only new loops are closed one
-    // by one, at most loop_max_solves a rebuild: a looped hour has hundreds
-    // of loops, and closing each again with a solve of the whole graph took
-    // 31 s of a rebuild at 2,000 keyframes (a daemon's watchdog killed it).
+    // all of them), one it refused stays out. New loops go in together with
+    // one solve, or one by one when the lot does not hold; at most
+    // loop_max_solves solves a rebuild: a looped hour has hundreds of loops,
+    // and closing each again with a solve of the whole graph took 31 s of a
+    // rebuild at 2,000 keyframes (a daemon's watchdog killed it).
     int solves = 0;
     bool spread = false, unsolved = false;
     std::vector<std::pair<size_t, LoopReport>> reports;  // by group, in order
@@ -443,9 +444,16 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
       e.robust = false;
       return e;
     };
-    const auto chain_of = [&](const PoseGraphEdge& e, std::vector<int>* chain, std::vector<int>* followers) {
-      for (int k = e.j; k <= e.i; ++k) chain->push_back(k);
-      for (int k = e.i + 1; k < int(nodes.size()); ++k) followers->push_back(k);
+    // What closing a loop did to its query keyframe, from where it was before.
+    const auto finish = [&](size_t gi, LoopReport lr, const PoseGraphEdge& e, const Found& best, const Sim3& q_before) {
+      const Sim3 C = S_w[size_t(e.i)] * q_before.Inverse();
+      lr.shift = (S_w[size_t(e.i)].translation() - q_before.translation()).norm();
+      lr.rotation_deg = RotationAngle(C.rotation()) * 180.0 / M_PI;
+      lr.scale_change = C.scale() - 1.0;
+      lr.shift_ratio = best.depth > 0 ? lr.shift / best.depth : 0;
+      lr.depth = best.depth / map->ToGlobal(best.qs).scale();
+      rep.closed += lr.closed;
+      reports.push_back({gi, std::move(lr)});
     };
     for (int pass = 0; pass < 2; ++pass) {  // 0: loops decided before, 1: new ones
       if (pass == 1 && spread) {
@@ -465,6 +473,14 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
         ++solves;
         if (!r.ok) spdlog::warn("loop closure: the solve of the loops closed before failed: {}", r.message);
       }
+      // New loops the graph has to move for, in the order they were made.
+      struct Pending {
+        size_t gi;
+        LoopReport lr;
+        PoseGraphEdge e;
+        const Found* best;
+      };
+      std::vector<Pending> pending;
       for (size_t gi = 0; gi < groups.size(); ++gi) {
         const std::vector<size_t>& g = groups[gi];
         std::set<std::pair<int, int>> queries;
@@ -476,6 +492,15 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
             g.begin(), g.end(), [&](size_t a, size_t b) { return found[a].d.inliers < found[b].d.inliers; })];
         LoopReport lr;
         lr.edge = best.d;
+        // Reported between the keyframes the edge joins: a culled keyframe's
+        // detection is carried to a living one (S_qm is between those two),
+        // and the loop audit takes the ground truth at these times.
+        for (const auto& [sub, k, id, t] : {std::tuple(best.qs, best.qk, &lr.edge.query_keyframe, &lr.edge.query_time),
+                                            std::tuple(best.ms, best.mk, &lr.edge.match_keyframe, &lr.edge.match_time)}) {
+          const Keyframe& kf = map->submap(sub).keyframes[size_t(k)];
+          *id = kf.id;
+          *t = kf.timestamp;
+        }
         lr.support = int(queries.size());
         const PoseGraphEdge e = edge_of(best);
         const Sim3 q_before = S_w[size_t(e.i)];
@@ -495,31 +520,73 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
           lr.reason = "already consistent";
           state->decided[group_key(g)] = true;
           unsolved = true;
-        } else if (solves >= o.loop_max_solves) {
-          lr.reason = "waits for the next rebuild (loop_max_solves)";
-          ++rep.waiting;
         } else {
-          std::vector<int> chain, followers;
-          chain_of(e, &chain, &followers);
-          const CloseLoopResult r = CloseLoop(&S_w, edges, {0}, e, chain, gopt, followers);
-          ++solves;
-          lr.closed = r.accepted;
-          lr.reason = r.reason;
-          state->decided[group_key(g)] = r.accepted;
+          pending.push_back({gi, std::move(lr), e, &best});
+          continue;
+        }
+        finish(gi, std::move(lr), e, best, q_before);
+      }
+      if (pending.empty()) continue;
+      // New loops go in together, with one solve: a looped hour brings a
+      // few dozen with every pass (each pass meets the earlier ones all
+      // along), and one solve each, loop_max_solves a rebuild, fell behind
+      // (993 waiting after 20 minutes). When a lot does not hold, the rest
+      // of the rebuild goes one by one. Spread in query order, each correction only
+      // along the walk since the loop before it (spreading each over its
+      // whole chain moved the keyframes between a pass and the earlier one
+      // once per loop: 1,880 loops at once took scales past e^30).
+      std::sort(pending.begin(), pending.end(), [](const Pending& a, const Pending& b) {
+        return std::tie(a.e.i, a.gi) < std::tie(b.e.i, b.gi);
+      });
+      // At most loop_batch at once: a lot refused costs its solve.
+      const size_t most = size_t(std::max(1, o.loop_batch));
+      size_t next = 0, len = most;
+      while (next < pending.size()) {
+        len = std::min(len, pending.size() - next);
+        if (solves >= o.loop_max_solves) {
+          for (; next < pending.size(); ++next) {
+            Pending& p = pending[next];
+            p.lr.reason = "waits for the next rebuild (loop_max_solves)";
+            ++rep.waiting;
+            finish(p.gi, std::move(p.lr), p.e, *p.best, S_w[size_t(p.e.i)]);
+          }
+          break;
+        }
+        std::vector<NewGraphEdge> news;
+        for (size_t k = next; k < next + len; ++k) {
+          NewGraphEdge ne;
+          ne.edge = pending[k].e;
+          const int from = k == next ? ne.edge.j : std::max(ne.edge.j, std::min(pending[k - 1].e.i, ne.edge.i - 1));
+          for (int n = from; n <= ne.edge.i; ++n) ne.chain.push_back(n);
+          for (int n = ne.edge.i + 1; n < int(nodes.size()); ++n) ne.followers.push_back(n);
+          news.push_back(std::move(ne));
+        }
+        const std::vector<Sim3> pre = S_w;
+        const CloseLoopResult r = CloseLoopEdges(&S_w, edges, {0}, news, gopt);
+        ++solves;
+        if (len > 1) spdlog::info("loop closure: {} new loops in one solve: {}", len, r.reason);
+        if (r.accepted || len == 1) {
+          for (size_t k = next; k < next + len; ++k) {
+            Pending& p = pending[k];
+            p.lr.closed = r.accepted;
+            p.lr.reason = len > 1 ? "accepted (one solve with " + std::to_string(len) + " new loops)" : r.reason;
+            state->decided[group_key(groups[p.gi])] = r.accepted;
+            if (r.accepted) edges.push_back(p.e);
+            finish(p.gi, std::move(p.lr), p.e, *p.best, pre[size_t(p.e.i)]);
+          }
           if (r.accepted) {
-            edges.push_back(e);
             changed = true;
             unsolved = false;
           }
+          next += len;
+          len = most;
+        } else {
+          // One by one for the rest of this rebuild: halving costs up to
+          // log2(most) solves per loop refused, and on a looped walk whose
+          // fronts drift in scale most new loops strained the walk's edges
+          // (a rebuild then decided one loop, not loop_max_solves).
+          len = 1;
         }
-        const Sim3 C = S_w[size_t(e.i)] * q_before.Inverse();
-        lr.shift = (S_w[size_t(e.i)].translation() - q_before.translation()).norm();
-        lr.rotation_deg = RotationAngle(C.rotation()) * 180.0 / M_PI;
-        lr.scale_change = C.scale() - 1.0;
-        lr.shift_ratio = best.depth > 0 ? lr.shift / best.depth : 0;
-        lr.depth = best.depth / map->ToGlobal(best.qs).scale();
-        rep.closed += lr.closed;
-        reports.push_back({gi, std::move(lr)});
       }
     }
     // Edges taken as consistent since the last solve join a last one: the
@@ -535,6 +602,10 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
     // No loop closed: the keyframes stay where they are (a base corrected
     // by an earlier rebuild keeps its correction).
     if (!changed) continue;
+    if (!std::all_of(S_w.begin(), S_w.end(), ValidPose)) {
+      spdlog::warn("loop closure: a solve left a keyframe without a valid pose; the map is left as it was");
+      continue;
+    }
     for (size_t i = 0; i < nodes.size(); ++i)
       state->memory.solved[{map->Key(nodes[i].submap), map->submap(nodes[i].submap).keyframes[size_t(nodes[i].keyframe)].id}] =
           S_w[i];

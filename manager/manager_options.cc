@@ -61,6 +61,9 @@ const OptionSpec<ManagerOptions>& ManagerOptions::Spec() {
     s->Number("culling_revisit_ratio", &O::culling_revisit_ratio, AtLeast(0.0), AtMost(1.0),
               "post-culling: a front keyframe this share of whose points other submaps see re-maps a known place "
               "and goes (0: off)");
+    s->Number("culling_loop_ratio", &O::culling_loop_ratio, AtLeast(0.0), AtMost(1.0),
+              "post-culling: a front keyframe this share of whose points a verified loop detection matched in "
+              "an earlier front submap goes (0: off)");
     s->Number("front_search_px", &O::front_search_px, AtLeast(0.0), AtMost(50.0),
               "front points searched in back keyframes within this radius; 0: off");
     s->Number("front_search_max_hamming", &O::front_search_max_hamming, AtLeast(0), AtMost(256),
@@ -128,7 +131,9 @@ const OptionSpec<ManagerOptions>& ManagerOptions::Spec() {
     s->Number("loop_merge_edge_weight", &O::loop_merge_edge_weight, Above(0.0), AtMost(1.0),
               "loop closure: weight of the graph's edges across submaps (1: a submap's own tracking)");
     s->Number("loop_max_solves", &O::loop_max_solves, AtLeast(1), AtMost(1000),
-              "loop closure: new loops closed (one solve each) per rebuild");
+              "loop closure: pose-graph solves per rebuild for new loops (the rest wait)");
+    s->Number("loop_batch", &O::loop_batch, AtLeast(1), AtMost(100000),
+              "loop closure: new loops tried together in one solve (1: one by one)");
     return s;
   }();
   return *spec;

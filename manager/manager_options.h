@@ -90,6 +90,11 @@ struct ManagerOptions {
   // points go with it unless others see them. Without it a looped room keeps
   // every pass. 0: off.
   double culling_revisit_ratio = 0.5;
+  // ... or this share of whose points were inliers of a verified loop
+  // detection (loop_closure.h) against an earlier front submap of its
+  // component whose keyframes there live: the place is mapped, without
+  // placing the keyframe first. 0: off.
+  double culling_loop_ratio = 0.15;
   // Before culling, front map points are searched in back keyframes (their
   // ORB keypoints, manager/front_point_search.h) within this radius times
   // 1.2^(predicted level), accepting descriptor distances up to
@@ -183,6 +188,10 @@ struct ManagerOptions {
   // wait for the next one); loops decided before are put back with one
   // solve for all of them.
   int loop_max_solves = 8;
+  // New loops tried together in one solve (a looped walk's pass brings a
+  // few dozen); when the lot does not hold, the rest of the rebuild closes
+  // them one by one. 1: one by one always.
+  int loop_batch = 64;
 
   // The keys of the `manager:` section (ReadOptions(root.Child("manager"), &o)).
   static const OptionSpec<ManagerOptions>& Spec();

@@ -572,6 +572,7 @@ bool ManagerService::WriteStats(std::string* why) const {
   j["culled_back"] = stats_.culling.culled_back;
   j["culled_front"] = stats_.culling.culled_front;
   j["culled_revisit"] = stats_.culling.culled_revisit;
+  j["culled_revisit_detected"] = stats_.culling.culled_revisit_detected;
   j["revisit_points_fused"] = stats_.culling.revisit_fused;
   j["revisit_keyframes_placed"] = stats_.culling.revisit_keyframes_placed;
   j["revisit_submaps_replayed"] = stats_.culling.revisit_submaps_replayed;

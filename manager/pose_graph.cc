@@ -66,13 +66,20 @@ void Weights(const PoseGraphEdge& e, const PoseGraphOptions& o, double w[3]) {
 }
 
 // Why nodes, edges and fixed nodes do not make a graph of n nodes ("" when they do).
-std::string GraphError(int n, const std::vector<PoseGraphEdge>& edges, const std::vector<int>& fixed) {
+std::string GraphError(const std::vector<Sim3>& S_w, const std::vector<PoseGraphEdge>& edges,
+                       const std::vector<int>& fixed) {
+  const int n = static_cast<int>(S_w.size());
   if (fixed.empty()) return "no fixed node: the graph's gauge (7 degrees of freedom) is free";
   for (int f : fixed)
     if (f < 0 || f >= n) return "fixed node " + std::to_string(f) + " is not a node";
-  for (const PoseGraphEdge& e : edges)
-    if (e.i < 0 || e.j < 0 || e.i >= n || e.j >= n || e.i == e.j || !(e.S_ij.scale() > 0))
+  for (const PoseGraphEdge& e : edges) {
+    if (e.i < 0 || e.j < 0 || e.i >= n || e.j >= n || e.i == e.j)
       return "edge " + std::to_string(e.i) + "-" + std::to_string(e.j) + " is not an edge between two nodes";
+    if (!ValidPose(e.S_ij))
+      return "edge " + std::to_string(e.i) + "-" + std::to_string(e.j) + " has no valid measurement (non-finite, or scale outside e^-30..e^30)";
+  }
+  for (int k = 0; k < n; ++k)
+    if (!ValidPose(S_w[size_t(k)])) return "node " + std::to_string(k) + " has no valid pose (non-finite, or scale outside e^-30..e^30)";
   return "";
 }
 
@@ -80,6 +87,13 @@ Node ToNode(const Sim3& S) { return Node{std::log(S.scale()), S.rotation(), S.tr
 Sim3 ToSim3(const Node& n) { return Sim3(std::exp(n.log_s), n.q, n.t); }
 
 }  // namespace
+
+bool ValidPose(const Sim3& S) {
+  // |log scale| < 30: what EdgeCost evaluates (beyond, exp overflows its derivatives).
+  return S.scale() > 0 && std::isfinite(S.scale()) && std::abs(std::log(S.scale())) < 30 &&
+         S.rotation().coeffs().allFinite() &&
+         std::abs(S.rotation().norm() - 1.0) < 1e-6 && S.translation().allFinite();
+}
 
 const char* PoseGraphEdgeKindName(PoseGraphEdgeKind k) {
   switch (k) {
@@ -107,7 +121,7 @@ PoseGraphResult OptimizePoseGraph(std::vector<Sim3>* S_w, const std::vector<Pose
                                   const std::vector<int>& fixed, const PoseGraphOptions& o) {
   PoseGraphResult res;
   const int n = static_cast<int>(S_w->size());
-  res.message = GraphError(n, edges, fixed);
+  res.message = GraphError(*S_w, edges, fixed);
   if (!res.message.empty()) return res;
   std::vector<Node> nodes(n);
   for (int k = 0; k < n; ++k) nodes[k] = ToNode((*S_w)[k]);
@@ -208,33 +222,42 @@ double MeanResidual(const std::vector<Sim3>& S_w, const std::vector<PoseGraphEdg
 
 }  // namespace
 
-CloseLoopResult CloseLoop(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdge>& edges,
-                          const std::vector<int>& fixed, const PoseGraphEdge& new_edge, const std::vector<int>& chain,
-                          const PoseGraphOptions& o, const std::vector<int>& followers) {
+CloseLoopResult CloseLoopEdges(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdge>& edges,
+                           const std::vector<int>& fixed, const std::vector<NewGraphEdge>& news,
+                           const PoseGraphOptions& o) {
   CloseLoopResult r;
   const int n = static_cast<int>(S_w->size());
   std::vector<PoseGraphEdge> all = edges;
-  all.push_back(new_edge);
+  for (const NewGraphEdge& ne : news) all.push_back(ne.edge);
   // Checked before anything reads a pose by these indices.
-  r.reason = GraphError(n, all, fixed);
+  r.reason = GraphError(*S_w, all, fixed);
   if (!r.reason.empty()) return r;
-  if (chain.size() < 2 || chain.front() != new_edge.j || chain.back() != new_edge.i) {
-    r.reason = "the chain must run from the edge's j to its i";
+  if (news.empty()) {
+    r.reason = "no new edge";
     return r;
   }
-  for (const auto* list : {&chain, &followers})
-    for (int k : *list)
-      if (k < 0 || k >= n) {
-        r.reason = "chain or follower node " + std::to_string(k) + " is not a node";
-        return r;
-      }
+  for (const NewGraphEdge& ne : news) {
+    if (ne.chain.size() < 2 || ne.chain.back() != ne.edge.i) {
+      r.reason = "the chain must run to the edge's i";
+      return r;
+    }
+    for (const auto* list : {&ne.chain, &ne.followers})
+      for (int k : *list)
+        if (k < 0 || k >= n) {
+          r.reason = "chain or follower node " + std::to_string(k) + " is not a node";
+          return r;
+        }
+  }
   const std::vector<Sim3> before = *S_w;
   r.mean_residual_before = MeanResidual(before, edges, o);
-  // Where the new edge puts its i: S_wi = S_wj * S_ij^-1.
-  DistributeCorrection(S_w, chain, (*S_w)[new_edge.j] * new_edge.S_ij.Inverse());
-  // What lies beyond the moving end takes its whole correction.
-  const Sim3 C = (*S_w)[chain.back()] * before[chain.back()].Inverse();
-  for (int k : followers) (*S_w)[size_t(k)] = C * before[size_t(k)];
+  for (const NewGraphEdge& ne : news) {
+    const std::vector<Sim3> was = *S_w;
+    // Where the new edge puts its i: S_wi = S_wj * S_ij^-1.
+    DistributeCorrection(S_w, ne.chain, (*S_w)[ne.edge.j] * ne.edge.S_ij.Inverse());
+    // What lies beyond the moving end takes its whole correction.
+    const Sim3 C = (*S_w)[ne.chain.back()] * was[ne.chain.back()].Inverse();
+    for (int k : ne.followers) (*S_w)[size_t(k)] = C * was[size_t(k)];
+  }
   r.solve = OptimizePoseGraph(S_w, all, fixed, o);
   auto reject = [&](const std::string& why) {
     *S_w = before;
@@ -245,13 +268,19 @@ CloseLoopResult CloseLoop(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdg
   if (!r.solve.ok) return reject("the solve failed: " + r.solve.message);
   r.mean_residual_after = MeanResidual(*S_w, edges, o);
   for (int k : r.solve.outlier_edges) {
-    if (k == static_cast<int>(edges.size())) return reject("the new edge disagrees with the graph (an outlier)");
+    if (k >= static_cast<int>(edges.size()))
+      return reject(news.size() == 1 ? "the new edge disagrees with the graph (an outlier)"
+                                     : "new edge " + std::to_string(k - int(edges.size())) +
+                                           " disagrees with the graph (an outlier)");
     const double was = PoseGraphResidual(before, edges[k], o).norm();
     if (was <= o.outlier_factor * o.loss_scale) {
-      char why[200];
-      std::snprintf(why, sizeof(why), "edge %d-%d (%s), consistent before (%.2f), is an outlier with it (%.2f)",
-                    edges[k].i, edges[k].j, PoseGraphEdgeKindName(edges[k].kind), was,
-                    PoseGraphResidual(*S_w, edges[k], o).norm());
+      const Eigen::Matrix<double, 7, 1> now = PoseGraphResidual(*S_w, edges[k], o);
+      char why[300];
+      std::snprintf(why, sizeof(why),
+                    "edge %d-%d (%s), consistent before (%.2f), is an outlier with it (%.2f: translation %.2f, "
+                    "rotation %.2f, scale %.2f)",
+                    edges[k].i, edges[k].j, PoseGraphEdgeKindName(edges[k].kind), was, now.norm(),
+                    now.head<3>().norm(), now.segment<3>(3).norm(), std::abs(now(6)));
       return reject(why);
     }
   }
@@ -260,6 +289,12 @@ CloseLoopResult CloseLoop(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdg
   r.accepted = true;
   r.reason = "accepted";
   return r;
+}
+
+CloseLoopResult CloseLoop(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdge>& edges,
+                          const std::vector<int>& fixed, const PoseGraphEdge& new_edge, const std::vector<int>& chain,
+                          const PoseGraphOptions& o, const std::vector<int>& followers) {
+  return CloseLoopEdges(S_w, edges, fixed, {NewGraphEdge{new_edge, chain, followers}}, o);
 }
 
 }  // namespace rumi

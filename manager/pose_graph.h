@@ -63,6 +63,11 @@ struct PoseGraphResult {
   std::string message;             // why not ok, or Ceres's summary line
 };
 
+// A pose a solve can start from: finite, scale > 0, unit rotation (a NaN
+// reaches Ceres's quaternion manifold as a failed CHECK, which aborts the
+// process; the graph functions refuse it with a clear error instead).
+bool ValidPose(const Sim3& S);
+
 // Whitened residual of edge e at poses S_w (what the solver minimises).
 Eigen::Matrix<double, 7, 1> PoseGraphResidual(const std::vector<Sim3>& S_w, const PoseGraphEdge& e,
                                               const PoseGraphOptions& o);
@@ -88,12 +93,27 @@ struct CloseLoopResult {
 };
 
 // A new loop (or merge) edge into a graph whose edges are consistent: its
-// correction is spread along chain (from new_edge.j's side to new_edge.i),
-// the graph solved, and the edge kept only if the graph stays consistent
+// correction is spread along chain (from a node that stays, edge.j or one
+// after it already in place, to edge.i, which moves), the graph
+// solved, and the edge kept only if the graph stays consistent
 // (PoseGraphOptions::max_mean_residual, no old edge an outlier, the new one
 // not an outlier). Followers (the nodes past the moving end, say the
 // keyframes after the one that closed the loop) take the moving end's whole
-// correction before the solve. Rejected: *S_w is as it was.
+// correction before the solve.
+struct NewGraphEdge {
+  PoseGraphEdge edge;
+  std::vector<int> chain, followers;
+};
+
+// Several new edges at once: each one's correction spread in turn, then one
+// solve for all, kept only if every one of them holds (a new edge an
+// outlier, or an old one made one, refuses the lot: the caller then tries
+// them one by one to find which). Rejected: *S_w is as it was.
+CloseLoopResult CloseLoopEdges(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdge>& edges,
+                           const std::vector<int>& fixed, const std::vector<NewGraphEdge>& news,
+                           const PoseGraphOptions& o = {});
+
+// One new edge: CloseLoopEdges with one.
 CloseLoopResult CloseLoop(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdge>& edges,
                           const std::vector<int>& fixed, const PoseGraphEdge& new_edge, const std::vector<int>& chain,
                           const PoseGraphOptions& o = {}, const std::vector<int>& followers = {});

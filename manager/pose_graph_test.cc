@@ -181,6 +181,84 @@ TEST(PoseGraph, AWrongFirstLoopIsRefused) {
   EXPECT_EQ(MaxPositionError(S, L.initial), 0.0);
 }
 
+// A room walked twice with drift on every step: the second lap meets the
+// first all along (loop edges every 8 nodes, measured without error), as
+// a looped walk's pass meets the earlier one.
+struct TwoLaps {
+  std::vector<Sim3> truth, initial;
+  std::vector<PoseGraphEdge> walk;
+  std::vector<NewGraphEdge> loops;
+};
+
+TwoLaps WalkTwice(int n) {
+  TwoLaps T;
+  const std::vector<Sim3> lap = Circle(n);
+  for (int k = 0; k < 2 * n; ++k) T.truth.push_back(lap[size_t(k % n)]);
+  const Sim3 drift(1.004, Eigen::Quaterniond(Eigen::AngleAxisd(0.4 * M_PI / 180, Eigen::Vector3d::UnitZ())),
+                   Eigen::Vector3d(0, 0.01, 0));
+  T.initial = {T.truth[0]};
+  for (int k = 0; k + 1 < 2 * n; ++k) {
+    PoseGraphEdge e;
+    e.i = k;
+    e.j = k + 1;
+    e.S_ij = Relative(T.truth[k], T.truth[k + 1]) * drift;
+    e.robust = false;  // as loop closure (loop_closure.h) builds its graph
+    T.walk.push_back(e);
+    T.initial.push_back(T.initial.back() * e.S_ij);
+  }
+  for (int k = n; k < 2 * n; k += 8) {
+    NewGraphEdge ne;
+    ne.edge.i = k;
+    ne.edge.j = k - n;
+    ne.edge.S_ij = Relative(T.truth[k], T.truth[k - n]);
+    ne.edge.kind = PoseGraphEdgeKind::kLoop;
+    ne.edge.robust = false;
+    ne.chain = Chain(k - n, k);
+    ne.followers = Chain(k + 1, 2 * n - 1);
+    if (k + 1 > 2 * n - 1) ne.followers.clear();
+    T.loops.push_back(ne);
+  }
+  return T;
+}
+
+// Several loops at once, one solve: as right as closing them one by one, and
+// one wrong edge among them refuses the lot and leaves the map as it was
+// (the caller then tries them one by one).
+TEST(PoseGraph, LoopsClosedTogetherInOneSolve) {
+  const TwoLaps T = WalkTwice(40);
+  std::vector<Sim3> together = T.initial;
+  const CloseLoopResult r = CloseLoopEdges(&together, T.walk, {0}, T.loops);
+  ASSERT_TRUE(r.accepted) << r.reason;
+  std::vector<Sim3> one_by_one = T.initial;
+  std::vector<PoseGraphEdge> edges = T.walk;
+  for (const NewGraphEdge& ne : T.loops) {
+    const CloseLoopResult r1 = CloseLoop(&one_by_one, edges, {0}, ne.edge, ne.chain, {}, ne.followers);
+    ASSERT_TRUE(r1.accepted) << r1.reason;
+    edges.push_back(ne.edge);
+  }
+  const double before = MaxPositionError(T.initial, T.truth);
+  std::cout << T.loops.size() << " loops: max position error " << before << " m -> " << MaxPositionError(together, T.truth)
+            << " m together, " << MaxPositionError(one_by_one, T.truth) << " m one by one\n";
+  EXPECT_GT(before, 2.0);
+  EXPECT_LT(MaxPositionError(together, T.truth), before / 5);
+  // The same graph: the same minimum, whichever way the edges came in.
+  EXPECT_LT(MaxPositionError(together, one_by_one), 0.01);
+
+  TwoLaps bad = T;
+  NewGraphEdge wrong;
+  wrong.edge = bad.loops[2].edge;
+  wrong.edge.S_ij = wrong.edge.S_ij * Sim3(1.0, Eigen::Quaterniond::Identity(), Eigen::Vector3d(3, 0, 0));
+  wrong.edge.j += 20;  // another place of the first lap
+  wrong.chain = Chain(wrong.edge.j, wrong.edge.i);
+  wrong.followers = bad.loops[2].followers;
+  bad.loops.insert(bad.loops.begin() + 3, wrong);
+  std::vector<Sim3> S = T.initial;
+  const CloseLoopResult rb = CloseLoopEdges(&S, T.walk, {0}, bad.loops);
+  EXPECT_FALSE(rb.accepted);
+  std::cout << "with a wrong one among them: " << rb.reason << "\n";
+  EXPECT_EQ(MaxPositionError(S, T.initial), 0.0) << "a refused batch changed the map";
+}
+
 TEST(PoseGraph, PointsMoveWithTheirNode) {
   const Sim3 old_pose(1.0, Eigen::Quaterniond::Identity(), Eigen::Vector3d(1, 0, 0));
   const Sim3 new_pose(2.0, Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ())),
@@ -202,6 +280,22 @@ TEST(PoseGraph, ABadGraphIsAClearError) {
   EXPECT_FALSE(r.ok);
   EXPECT_NE(r.message.find("0-7"), std::string::npos);
   EXPECT_TRUE(S[1].translation().isApprox(Circle(3)[1].translation()));  // nothing changed
+  // A NaN pose or measurement is an error, not a Ceres CHECK that aborts.
+  e.j = 1;
+  S[2] = Sim3(1.0, Eigen::Quaterniond(NAN, 0, 0, 0), Eigen::Vector3d::Zero());
+  PoseGraphEdge e2 = e;
+  e2.j = 2;
+  r = OptimizePoseGraph(&S, {e, e2}, {0});
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.message.find("node 2"), std::string::npos) << r.message;
+  S = Circle(3);
+  e2.S_ij = Sim3(1.0, Eigen::Quaterniond::Identity(), Eigen::Vector3d(NAN, 0, 0));
+  r = OptimizePoseGraph(&S, {e, e2}, {0});
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.message.find("0-2"), std::string::npos) << r.message;
+  const CloseLoopResult c = CloseLoop(&S, {e}, {0}, e2, {2, 1, 0});
+  EXPECT_FALSE(c.accepted);
+  EXPECT_TRUE(S[1].translation().isApprox(Circle(3)[1].translation()));
 }
 
 }  // namespace

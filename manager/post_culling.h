@@ -23,6 +23,7 @@ struct CullingReport {
   int points_before = 0, points_after = 0;
   int culled_back = 0, culled_front = 0;
   int culled_revisit = 0;  // front keyframes of a pass over a place an earlier one mapped
+  int culled_revisit_detected = 0;  // ... found so by a verified loop detection, not by fused points
   int front_points_found = 0;  // observations added by SearchFrontPoints
   double seconds_front_search = 0;  // of the culling's time, SearchFrontPoints'
   // FuseRevisitPoints, run first: front keyframes searched, points fused.

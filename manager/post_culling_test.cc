@@ -140,5 +140,66 @@ TEST(PostCulling, MergedScenarioCullsBackFirstAndKeepsTrajectory) {
   }
 }
 
+// A second pass over a room whose keyframes the loop search verified against
+// the first pass (loop_closure.h): a keyframe whose verified inliers are at
+// least culling_revisit_ratio of its points goes, without fused points (its
+// pose need not be placed first); fewer inliers, a match in a later pass or
+// in another component keep it.
+TEST(PostCulling, ARevisitTheLoopSearchVerifiedIsCulled) {
+  const auto pass = [](int64_t id, double t0, int64_t first_point) {
+    Submap s = Keyframes(SubmapSource::kFront, 6);
+    s.id = id;
+    for (int k = 0; k < 6; ++k) {
+      s.keyframes[size_t(k)].id = k;
+      s.keyframes[size_t(k)].timestamp = int64_t((t0 + k) * 1e9);
+      Observe(&s, k, first_point + 100 * k, 100, 0);  // no point seen twice: the ORB rule keeps all
+    }
+    return s;
+  };
+  const auto run = [&](bool connected, const ManagerOptions& o) {
+    GlobalMap map;
+    map.AddSubmap(pass(1, 100, 0));
+    map.AddSubmap(pass(2, 200, 10000));
+    map.AddSubmap(pass(3, 300, 20000));
+    map.Union(0, 1);
+    if (connected) map.Union(0, 2);
+    const auto detection = [&](int64_t q_submap, int64_t q_kf, int64_t m_submap, int64_t m_kf, int inliers) {
+      LoopDetection d;
+      d.query_submap = {SubmapSource::kFront, q_submap};
+      d.match_submap = {SubmapSource::kFront, m_submap};
+      d.query_keyframe = q_kf;
+      d.match_keyframe = m_kf;
+      d.query_time = int64_t((q_submap * 100 + q_kf) * 1e9);
+      d.match_time = int64_t((m_submap * 100 + m_kf) * 1e9);
+      d.inliers = inliers;
+      map.loops().searched[{d.query_submap, q_kf}].push_back(d);
+    };
+    detection(2, 0, 1, 0, 30);   // 30 of its 100 points: a revisit (culling_loop_ratio 0.15)
+    detection(2, 1, 1, 1, 10);   // 10: not enough
+    detection(2, 2, 1, 2, 100);  // a revisit
+    detection(1, 3, 2, 3, 100);  // the first pass matched in the later one: kept
+    detection(3, 4, 1, 4, 90);   // the third pass: a revisit if it is in the same component
+    const CullingReport r = CullRedundantKeyframes(&map, o);
+    std::vector<std::vector<int64_t>> ids(3);
+    for (int s = 0; s < 3; ++s)
+      for (const Keyframe& kf : map.submap(s).keyframes) ids[size_t(s)].push_back(kf.id);
+    return std::pair(r, ids);
+  };
+  const ManagerOptions o;
+  auto [r, ids] = run(true, o);
+  EXPECT_EQ(r.culled_revisit_detected, 3);
+  EXPECT_EQ(ids[0], (std::vector<int64_t>{0, 1, 2, 3, 4, 5}));
+  EXPECT_EQ(ids[1], (std::vector<int64_t>{1, 3, 4, 5}));
+  EXPECT_EQ(ids[2], (std::vector<int64_t>{0, 1, 2, 3, 5}));
+  std::tie(r, ids) = run(false, o);
+  EXPECT_EQ(r.culled_revisit_detected, 2);
+  EXPECT_EQ(ids[2].size(), 6u);
+  ManagerOptions off = o;
+  off.culling_loop_ratio = 0;
+  std::tie(r, ids) = run(true, off);
+  EXPECT_EQ(r.culled_revisit_detected, 0);
+  EXPECT_EQ(ids[1].size(), 6u);
+}
+
 }  // namespace
 }  // namespace rumi
