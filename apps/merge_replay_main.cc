@@ -229,9 +229,9 @@ int Main(int argc, char** argv) {
   // (loop_max_solves) are closed on the map corrected so far.
   for (int round = 1; loops.waiting > 0 && round < loop_rounds; ++round) {
     const std::vector<bool> fresh(map.size(), false);
-    const int waiting = loops.waiting;
+    const size_t decided = loop_state.decided.size();
     loops = CloseLoops(&map, config.manager, &loop_state, &fresh);
-    if (loops.waiting >= waiting) break;  // no loop decided this round: the next would not either
+    if (loop_state.decided.size() == decided) break;  // no loop decided this round: the next would not either
   }
   std::cout << fmt::format("loop closure: {} keyframes searched, {} candidates verified, {} detections, {} loops "
                            "closed, {} keyframes moved, detect {:.2f} s, close {:.2f} s\n",

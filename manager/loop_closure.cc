@@ -535,12 +535,10 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
       // along the walk since the loop before it (spreading each over its
       // whole chain moved the keyframes between a pass and the earlier one
       // once per loop: 1,880 loops at once took scales past e^30).
-      std::sort(pending.begin(), pending.end(), [](const Pending& a, const Pending& b) {
-        return std::tie(a.e.i, a.gi) < std::tie(b.e.i, b.gi);
-      });
       // At most loop_batch at once: a lot refused costs its solve.
       const size_t most = size_t(std::max(1, o.loop_batch));
       size_t next = 0, len = most;
+      bool one_by_one = false;
       while (next < pending.size()) {
         len = std::min(len, pending.size() - next);
         if (solves >= o.loop_max_solves) {
@@ -552,11 +550,18 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
           }
           break;
         }
+        // Spread in query order (the lot is tried, and one by one decided,
+        // in the loops' own order).
+        std::vector<size_t> order;
+        for (size_t k = next; k < next + len; ++k) order.push_back(k);
+        std::stable_sort(order.begin(), order.end(),
+                         [&](size_t a, size_t b) { return pending[a].e.i < pending[b].e.i; });
         std::vector<NewGraphEdge> news;
-        for (size_t k = next; k < next + len; ++k) {
+        for (size_t k = 0; k < order.size(); ++k) {
           NewGraphEdge ne;
-          ne.edge = pending[k].e;
-          const int from = k == next ? ne.edge.j : std::max(ne.edge.j, std::min(pending[k - 1].e.i, ne.edge.i - 1));
+          ne.edge = pending[order[k]].e;
+          const int from =
+              k == 0 ? ne.edge.j : std::max(ne.edge.j, std::min(pending[order[k - 1]].e.i, ne.edge.i - 1));
           for (int n = from; n <= ne.edge.i; ++n) ne.chain.push_back(n);
           for (int n = ne.edge.i + 1; n < int(nodes.size()); ++n) ne.followers.push_back(n);
           news.push_back(std::move(ne));
@@ -579,13 +584,14 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
             unsolved = false;
           }
           next += len;
-          len = most;
+          len = one_by_one ? 1 : most;
         } else {
           // One by one for the rest of this rebuild: halving costs up to
           // log2(most) solves per loop refused, and on a looped walk whose
           // fronts drift in scale most new loops strained the walk's edges
           // (a rebuild then decided one loop, not loop_max_solves).
           len = 1;
+          one_by_one = true;
         }
       }
     }
