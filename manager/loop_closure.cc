@@ -425,6 +425,7 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
     // rebuild at 2,000 keyframes (a daemon's watchdog killed it).
     int solves = 0;
     bool spread = false, unsolved = false;
+    std::vector<LoopClosureState::GroupKey> decided_now;  // undone if the result cannot be kept
     std::vector<std::pair<size_t, LoopReport>> reports;  // by group, in order
     const auto group_key = [&](const std::vector<size_t>& g) {
       const Found& f = found[g.front()];
@@ -519,6 +520,7 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
           lr.closed = true;
           lr.reason = "already consistent";
           state->decided[group_key(g)] = true;
+          decided_now.push_back(group_key(g));
           unsolved = true;
         } else {
           pending.push_back({gi, std::move(lr), e, &best});
@@ -541,6 +543,9 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
       bool one_by_one = false;
       while (next < pending.size()) {
         len = std::min(len, pending.size() - next);
+        // A lot only where a refusal leaves a solve for one loop alone: every
+        // rebuild decides something.
+        if (solves + 2 > o.loop_max_solves) len = 1;
         if (solves >= o.loop_max_solves) {
           for (; next < pending.size(); ++next) {
             Pending& p = pending[next];
@@ -576,6 +581,7 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
             p.lr.closed = r.accepted;
             p.lr.reason = len > 1 ? "accepted (one solve with " + std::to_string(len) + " new loops)" : r.reason;
             state->decided[group_key(groups[p.gi])] = r.accepted;
+            decided_now.push_back(group_key(groups[p.gi]));
             if (r.accepted) edges.push_back(p.e);
             finish(p.gi, std::move(p.lr), p.e, *p.best, pre[size_t(p.e.i)]);
           }
@@ -610,6 +616,7 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
     if (!changed) continue;
     if (!std::all_of(S_w.begin(), S_w.end(), ValidPose)) {
       spdlog::warn("loop closure: a solve left a keyframe without a valid pose; the map is left as it was");
+      for (const auto& key : decided_now) state->decided.erase(key);
       continue;
     }
     for (size_t i = 0; i < nodes.size(); ++i)

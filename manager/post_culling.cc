@@ -208,16 +208,18 @@ CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& optio
     for (int64_t pid : map->submap(s).keyframes[k].point_ids) count += pid >= 0 && idx[size_t(s)].Point(pid) >= 0;
     return count;
   };
-  // A living keyframe of submap m within options.loop_window keyframes (in
-  // time) of what the detection matched: the place is still mapped there.
+  // A living keyframe of submap m within loop_group_s of what the detection
+  // matched (loop closure's scale of one place): the place is still mapped
+  // there. (Earlier submaps are culled after later ones here, so this holds
+  // for keyframes culled at earlier rebuilds, which have left the map; a
+  // keyframe the rules below cull now has others that see its points.)
+  const int64_t near_ns = int64_t(options.loop_group_s * 1e9);
   const auto alive_near = [&](int m, Timestamp t) {
     const auto& kfs = map->submap(m).keyframes;
-    const auto it = std::lower_bound(kfs.begin(), kfs.end(), t,
-                                     [](const Keyframe& kf, Timestamp x) { return kf.timestamp < x; });
-    const int c = int(it - kfs.begin());
-    for (int j = std::max(0, c - options.loop_window - 1); j <= std::min(int(kfs.size()) - 1, c + options.loop_window);
-         ++j)
-      if (!culled[size_t(m)][size_t(j)]) return true;
+    auto it = std::lower_bound(kfs.begin(), kfs.end(), t - near_ns,
+                               [](const Keyframe& kf, Timestamp x) { return kf.timestamp < x; });
+    for (; it != kfs.end() && it->timestamp <= t + near_ns; ++it)
+      if (!culled[size_t(m)][size_t(it - kfs.begin())]) return true;
     return false;
   };
   const auto revisit_by_detection = [&](int s, size_t k) {

@@ -143,8 +143,8 @@ TEST(PostCulling, MergedScenarioCullsBackFirstAndKeepsTrajectory) {
 // A second pass over a room whose keyframes the loop search verified against
 // the first pass (loop_closure.h): a keyframe whose verified inliers are at
 // least culling_revisit_ratio of its points goes, without fused points (its
-// pose need not be placed first); fewer inliers, a match in a later pass or
-// in another component keep it.
+// pose need not be placed first); fewer inliers, a match where the earlier
+// pass has no keyframe left, in a later pass or in another component keep it.
 TEST(PostCulling, ARevisitTheLoopSearchVerifiedIsCulled) {
   const auto pass = [](int64_t id, double t0, int64_t first_point) {
     Submap s = Keyframes(SubmapSource::kFront, 6);
@@ -177,6 +177,7 @@ TEST(PostCulling, ARevisitTheLoopSearchVerifiedIsCulled) {
     detection(2, 0, 1, 0, 30);   // 30 of its 100 points: a revisit (culling_loop_ratio 0.15)
     detection(2, 1, 1, 1, 10);   // 10: not enough
     detection(2, 2, 1, 2, 100);  // a revisit
+    detection(2, 5, 1, 50, 100);  // matched at 150 s, where the first pass has no keyframe left: kept
     detection(1, 3, 2, 3, 100);  // the first pass matched in the later one: kept
     detection(3, 4, 1, 4, 90);   // the third pass: a revisit if it is in the same component
     const CullingReport r = CullRedundantKeyframes(&map, o);
