@@ -496,12 +496,13 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
         // Reported between the keyframes the edge joins: a culled keyframe's
         // detection is carried to a living one (S_qm is between those two),
         // and the loop audit takes the ground truth at these times.
-        for (const auto& [sub, k, id, t] : {std::tuple(best.qs, best.qk, &lr.edge.query_keyframe, &lr.edge.query_time),
-                                            std::tuple(best.ms, best.mk, &lr.edge.match_keyframe, &lr.edge.match_time)}) {
+        const auto report_at = [&](int sub, int k, int64_t* id, Timestamp* t) {
           const Keyframe& kf = map->submap(sub).keyframes[size_t(k)];
           *id = kf.id;
           *t = kf.timestamp;
-        }
+        };
+        report_at(best.qs, best.qk, &lr.edge.query_keyframe, &lr.edge.query_time);
+        report_at(best.ms, best.mk, &lr.edge.match_keyframe, &lr.edge.match_time);
         lr.support = int(queries.size());
         const PoseGraphEdge e = edge_of(best);
         const Sim3 q_before = S_w[size_t(e.i)];
@@ -533,10 +534,10 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
       // few dozen with every pass (each pass meets the earlier ones all
       // along), and one solve each, loop_max_solves a rebuild, fell behind
       // (993 waiting after 20 minutes). When a lot does not hold, the rest
-      // of the rebuild goes one by one. Spread in query order, each correction only
-      // along the walk since the loop before it (spreading each over its
-      // whole chain moved the keyframes between a pass and the earlier one
-      // once per loop: 1,880 loops at once took scales past e^30).
+      // of the rebuild goes one by one. Spread in query order, each
+      // correction only along the walk since the loop before it (spreading
+      // each over its whole chain moved the keyframes between a pass and the
+      // earlier one once per loop: 1,880 loops at once took scales past e^30).
       // At most loop_batch at once: a lot refused costs its solve.
       const size_t most = size_t(std::max(1, o.loop_batch));
       size_t next = 0, len = most;
@@ -619,9 +620,10 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
       for (const auto& key : decided_now) state->decided.erase(key);
       continue;
     }
-    for (size_t i = 0; i < nodes.size(); ++i)
-      state->memory.solved[{map->Key(nodes[i].submap), map->submap(nodes[i].submap).keyframes[size_t(nodes[i].keyframe)].id}] =
-          S_w[i];
+    for (size_t i = 0; i < nodes.size(); ++i) {
+      const Keyframe& kf = map->submap(nodes[i].submap).keyframes[size_t(nodes[i].keyframe)];
+      state->memory.solved[{map->Key(nodes[i].submap), kf.id}] = S_w[i];
+    }
     // Write the corrections back: keyframes, their points, the tracked
     // frames (nearest keyframe in time), back submaps (nearest front
     // keyframe in time).

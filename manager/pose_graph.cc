@@ -76,10 +76,12 @@ std::string GraphError(const std::vector<Sim3>& S_w, const std::vector<PoseGraph
     if (e.i < 0 || e.j < 0 || e.i >= n || e.j >= n || e.i == e.j)
       return "edge " + std::to_string(e.i) + "-" + std::to_string(e.j) + " is not an edge between two nodes";
     if (!ValidPose(e.S_ij))
-      return "edge " + std::to_string(e.i) + "-" + std::to_string(e.j) + " has no valid measurement (non-finite, or scale outside e^-30..e^30)";
+      return "edge " + std::to_string(e.i) + "-" + std::to_string(e.j) +
+             " has no valid measurement (non-finite, or scale outside e^-30..e^30)";
   }
   for (int k = 0; k < n; ++k)
-    if (!ValidPose(S_w[size_t(k)])) return "node " + std::to_string(k) + " has no valid pose (non-finite, or scale outside e^-30..e^30)";
+    if (!ValidPose(S_w[size_t(k)]))
+      return "node " + std::to_string(k) + " has no valid pose (non-finite, or scale outside e^-30..e^30)";
   return "";
 }
 
@@ -223,8 +225,8 @@ double MeanResidual(const std::vector<Sim3>& S_w, const std::vector<PoseGraphEdg
 }  // namespace
 
 CloseLoopResult CloseLoopEdges(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdge>& edges,
-                           const std::vector<int>& fixed, const std::vector<NewGraphEdge>& news,
-                           const PoseGraphOptions& o) {
+                               const std::vector<int>& fixed, const std::vector<NewGraphEdge>& news,
+                               const PoseGraphOptions& o) {
   CloseLoopResult r;
   const int n = static_cast<int>(S_w->size());
   std::vector<PoseGraphEdge> all = edges;
@@ -251,12 +253,13 @@ CloseLoopResult CloseLoopEdges(std::vector<Sim3>* S_w, const std::vector<PoseGra
   const std::vector<Sim3> before = *S_w;
   r.mean_residual_before = MeanResidual(before, edges, o);
   for (const NewGraphEdge& ne : news) {
-    const std::vector<Sim3> was = *S_w;
+    const Sim3 end_was = (*S_w)[size_t(ne.chain.back())];
     // Where the new edge puts its i: S_wi = S_wj * S_ij^-1.
     DistributeCorrection(S_w, ne.chain, (*S_w)[ne.edge.j] * ne.edge.S_ij.Inverse());
-    // What lies beyond the moving end takes its whole correction.
-    const Sim3 C = (*S_w)[ne.chain.back()] * was[ne.chain.back()].Inverse();
-    for (int k : ne.followers) (*S_w)[size_t(k)] = C * was[size_t(k)];
+    // What lies beyond the moving end (off the chain, untouched by the
+    // spread) takes its whole correction.
+    const Sim3 C = (*S_w)[size_t(ne.chain.back())] * end_was.Inverse();
+    for (int k : ne.followers) (*S_w)[size_t(k)] = C * (*S_w)[size_t(k)];
   }
   r.solve = OptimizePoseGraph(S_w, all, fixed, o);
   auto reject = [&](const std::string& why) {

@@ -97,9 +97,9 @@ struct CloseLoopResult {
 // after it already in place, to edge.i, which moves), the graph
 // solved, and the edge kept only if the graph stays consistent
 // (PoseGraphOptions::max_mean_residual, no old edge an outlier, the new one
-// not an outlier). Followers (the nodes past the moving end, say the
-// keyframes after the one that closed the loop) take the moving end's whole
-// correction before the solve.
+// not an outlier). Followers (the nodes past the moving end, off the chain,
+// say the keyframes after the one that closed the loop) take the moving
+// end's whole correction before the solve.
 struct NewGraphEdge {
   PoseGraphEdge edge;
   std::vector<int> chain, followers;
@@ -110,8 +110,8 @@ struct NewGraphEdge {
 // outlier, or an old one made one, refuses the lot: the caller then tries
 // them one by one to find which). Rejected: *S_w is as it was.
 CloseLoopResult CloseLoopEdges(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdge>& edges,
-                           const std::vector<int>& fixed, const std::vector<NewGraphEdge>& news,
-                           const PoseGraphOptions& o = {});
+                               const std::vector<int>& fixed, const std::vector<NewGraphEdge>& news,
+                               const PoseGraphOptions& o = {});
 
 // One new edge: CloseLoopEdges with one.
 CloseLoopResult CloseLoop(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdge>& edges,

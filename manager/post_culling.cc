@@ -322,8 +322,9 @@ CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& optio
                                return after[f.dup].Point(f.dup_point) < 0 || after[f.kept].Point(f.kept_point) < 0;
                              }),
               fused.end());
-  spdlog::info("post-culling: saved keyframes {} -> {} ({} back, {} front, {} + {} revisit culled: fused, detected), points {} -> {}, {} front "
-               "points found in back keyframes, {} revisit points fused ({} keyframes searched, {} submaps replayed, {:.2f} s)",
+  spdlog::info("post-culling: saved keyframes {} -> {} ({} back, {} front, {} + {} revisit culled: fused, detected), "
+               "points {} -> {}, {} front points found in back keyframes, {} revisit points fused ({} keyframes "
+               "searched, {} submaps replayed, {:.2f} s)",
                rep.keyframes_before, rep.keyframes_after, rep.culled_back, rep.culled_front, rep.culled_revisit,
                rep.culled_revisit_detected, rep.points_before,
                rep.points_after, rep.front_points_found, rep.revisit_fused, rep.revisit_keyframes_searched,
