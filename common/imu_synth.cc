@@ -18,7 +18,7 @@ bool ImuSynth::covers(Timestamp t) const { return t >= poses_.first_time() && t 
 
 Se3 ImuSynth::PoseAt(Timestamp t) const { return *poses_.At(std::clamp(t, poses_.first_time(), poses_.last_time())); }
 
-void ImuSynth::Sample(Timestamp t, float accel[3], float gyro[3]) {
+void ImuSynth::Sample(Timestamp t, float accel[3], float gyro[3], double rate) {
   const Timestamp h = 10'000'000;  // 10 ms differences: smoother than 30 Hz poses need
   // Near the trajectory's ends the window moves inside it (a clamped pose
   // would read as a jolt).
@@ -27,9 +27,9 @@ void ImuSynth::Sample(Timestamp t, float accel[3], float gyro[3]) {
   const double dt = 2e-2;
   // Body rate: R1^T R2 over 2h, as an angle-axis.
   const Eigen::AngleAxisd d(p0.rotation().conjugate() * p2.rotation());
-  Eigen::Vector3d w = d.axis() * d.angle() / dt;
+  const Eigen::Vector3d w = d.axis() * d.angle() / dt * rate;
   const Eigen::Vector3d a_world =
-      (p2.translation() - 2 * p1.translation() + p0.translation()) / (1e-2 * 1e-2);
+      (p2.translation() - 2 * p1.translation() + p0.translation()) / (1e-2 * 1e-2) * (rate * rate);
   Eigen::Vector3d f = p1.rotation().conjugate() * (a_world - o_.gravity_world);
   std::normal_distribution<double> ng(0, o_.gyro_noise), na(0, o_.accel_noise);
   for (int i = 0; i < 3; ++i) {

@@ -32,7 +32,9 @@ class ImuSynth {
   ImuSynth(std::vector<std::pair<Timestamp, Se3>> poses, const ImuSynthOptions& o = {});
   bool covers(Timestamp t) const;
   // The sample at t (the trajectory's time): accel, gyro in the body frame.
-  void Sample(Timestamp t, float accel[3], float gyro[3]);
+  // rate: the trajectory played at rate x its recorded speed (a robot
+  // walking slower turns slower: rates scale by it, accelerations by its square).
+  void Sample(Timestamp t, float accel[3], float gyro[3], double rate = 1.0);
 
  private:
   Se3 PoseAt(Timestamp t) const;  // clamped to the trajectory's span

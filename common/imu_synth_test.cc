@@ -41,6 +41,26 @@ TEST(ImuSynth, AcceleratingAlongXReadsTheAcceleration) {
   imu.Sample(SecondsToNs(1.5), a, g);
   EXPECT_NEAR(a[0], 2.0, 1e-3);
   EXPECT_NEAR(a[2], 9.81, 1e-3);
+  // Played at half speed: a quarter of the acceleration, gravity unchanged.
+  imu.Sample(SecondsToNs(1.5), a, g, 0.5);
+  EXPECT_NEAR(a[0], 0.5, 1e-3);
+  EXPECT_NEAR(a[2], 9.81, 1e-3);
+}
+
+// A robot-sim playing a sequence slower than recorded: the body turns slower.
+TEST(ImuSynth, PlayedSlowerTurnsSlower) {
+  std::vector<std::pair<Timestamp, Se3>> poses;
+  for (int i = 0; i <= 100; ++i) {
+    const double t = i * 0.033;
+    poses.push_back({SecondsToNs(t), Se3(Eigen::Quaterniond(Eigen::AngleAxisd(0.5 * t, Eigen::Vector3d::UnitZ())),
+                                         Eigen::Vector3d::Zero())});
+  }
+  ImuSynthOptions o;
+  o.gyro_noise = o.accel_noise = o.gyro_bias = o.accel_bias = 0;
+  ImuSynth imu(poses, o);
+  float a[3], g[3];
+  imu.Sample(SecondsToNs(1.0), a, g, 0.5);
+  EXPECT_NEAR(g[2], 0.25, 1e-3);
 }
 
 }  // namespace
