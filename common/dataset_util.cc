@@ -144,20 +144,9 @@ GroundTruth ToGroundTruth(const Trajectory& traj) {
 }
 
 long NearestPose(const GroundTruth& gt, Timestamp t, Timestamp max_diff) {
-  const auto it = std::lower_bound(gt.begin(), gt.end(), t,
-                                   [](const std::pair<Timestamp, Se3>& p, Timestamp v) { return p.first < v; });
-  long best = -1;
-  Timestamp best_dt = 0;
-  // Earlier neighbour first, so a tie keeps the earlier pose.
-  if (it != gt.begin()) {
-    best = static_cast<long>(it - gt.begin()) - 1;
-    best_dt = t - std::prev(it)->first;
-  }
-  if (it != gt.end() && (best < 0 || it->first - t < best_dt)) {
-    best = static_cast<long>(it - gt.begin());
-    best_dt = it->first - t;
-  }
-  return best >= 0 && best_dt <= max_diff ? best : -1;
+  const auto it = NearestInTime(gt.begin(), gt.end(), t, [](const std::pair<Timestamp, Se3>& p) { return p.first; });
+  if (it == gt.end() || std::abs(it->first - t) > max_diff) return -1;
+  return static_cast<long>(it - gt.begin());
 }
 
 std::vector<std::optional<Se3>> AssociateNearest(const std::vector<ImageEntry>& images,

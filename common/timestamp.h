@@ -1,8 +1,10 @@
 #pragma once
 // Frame identity: capture time as int64 nanoseconds (design contract). Seconds
 // appear only at the edges (TUM files, COLMAP image names).
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <iterator>
 #include <string>
 
 namespace rumi {
@@ -32,6 +34,19 @@ bool ParseSecondsToNs(const std::string& text, Timestamp* ns);
 // Formats ns as seconds with 9 decimals ("1305031102.175304000") so that a
 // round trip through text is exact.
 std::string FormatSeconds(Timestamp ns);
+
+// The element of [first, last), sorted by time_of(element), nearest in time
+// to t (the earlier of two as near); last when the range is empty. The one
+// "keyframe/frame/pose nearest a time" lookup.
+template <typename It, typename TimeOf>
+It NearestInTime(It first, It last, Timestamp t, TimeOf time_of) {
+  if (first == last) return last;
+  const It it = std::lower_bound(first, last, t, [&](const auto& e, Timestamp x) { return time_of(e) < x; });
+  if (it == first) return it;
+  const It before = std::prev(it);
+  if (it == last) return before;
+  return t - time_of(*before) <= time_of(*it) - t ? before : it;
+}
 
 // Zero-padded name for files handed to COLMAP: name order is time order.
 std::string TimestampFileStem(Timestamp ns);  // 20 digits

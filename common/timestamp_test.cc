@@ -103,5 +103,24 @@ TEST(Timestamp, FileStemRejectsMalformed) {
   }
 }
 
+TEST(Timestamp, NearestInTime) {
+  const std::vector<Timestamp> v = {10, 20, 40};
+  const auto id = [](Timestamp x) { return x; };
+  const auto at = [&](Timestamp t) { return NearestInTime(v.begin(), v.end(), t, id) - v.begin(); };
+  EXPECT_EQ(at(0), 0);    // before the first
+  EXPECT_EQ(at(14), 0);
+  EXPECT_EQ(at(15), 0);   // as near as 20: the earlier
+  EXPECT_EQ(at(16), 1);
+  EXPECT_EQ(at(20), 1);   // exact
+  EXPECT_EQ(at(31), 2);
+  EXPECT_EQ(at(99), 2);   // after the last
+  const std::vector<Timestamp> none;
+  EXPECT_TRUE(NearestInTime(none.begin(), none.end(), 5, id) == none.end());
+  // Indices sorted by another array's times (how keyframes are looked up).
+  const std::vector<Timestamp> times = {40, 10, 20};
+  const std::vector<int> order = {1, 2, 0};
+  EXPECT_EQ(*NearestInTime(order.begin(), order.end(), 37, [&](int i) { return times[size_t(i)]; }), 0);
+}
+
 }  // namespace
 }  // namespace rumi

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <map>
+#include <numeric>
 #include <set>
 
 namespace rumi {
@@ -87,6 +88,19 @@ std::vector<int> GlobalMap::ComponentsBySize() const {
 int GlobalMap::LargestComponent() const {
   const std::vector<int> roots = ComponentsBySize();
   return roots.empty() ? -1 : roots.front();
+}
+
+std::vector<int> TimeRanks(const GlobalMap& map) {
+  const int n = int(map.size());
+  const auto first_time = [&](int s) {
+    const auto& kfs = map.submap(s).keyframes;
+    return kfs.empty() ? Timestamp(0) : kfs.front().timestamp;
+  };
+  std::vector<int> by_time(static_cast<size_t>(n)), rank(static_cast<size_t>(n));
+  std::iota(by_time.begin(), by_time.end(), 0);
+  std::stable_sort(by_time.begin(), by_time.end(), [&](int a, int b) { return first_time(a) < first_time(b); });
+  for (int r = 0; r < n; ++r) rank[size_t(by_time[size_t(r)])] = r;
+  return rank;
 }
 
 }  // namespace rumi

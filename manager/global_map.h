@@ -116,4 +116,10 @@ class GlobalMap {
   LoopMemory loops_;
 };
 
+// Each submap's rank in time order of its first keyframe (ties, and
+// submaps without keyframes, by index). "An earlier pass" is this order,
+// not the map's: a manager's base precedes what it received, and a loaded
+// map lists its raw submaps before the baked ones.
+std::vector<int> TimeRanks(const GlobalMap& map);
+
 }  // namespace rumi

@@ -300,10 +300,8 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
     const auto raw = state->memory.raw_pose.find({key, id});
     if (raw == state->memory.raw_pose.end()) return Living{};
     const auto& kfs = map->submap(l.s).keyframes;
-    const auto near = std::lower_bound(kfs.begin(), kfs.end(), t,
-                                       [](const Keyframe& kf, Timestamp x) { return kf.timestamp < x; });
-    size_t k = size_t(near - kfs.begin());
-    if (k == kfs.size() || (k > 0 && t - kfs[k - 1].timestamp <= kfs[k].timestamp - t)) k = k == 0 ? 0 : k - 1;
+    const size_t k = size_t(NearestInTime(kfs.begin(), kfs.end(), t, [](const Keyframe& kf) { return kf.timestamp; }) -
+                            kfs.begin());
     l.k = int(k);
     l.T = Sim3(state->memory.raw_pose.at({key, kfs[k].id})).Inverse() * Sim3(raw->second);
     return l;
@@ -635,11 +633,7 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
     std::map<int, std::vector<int>> nodes_of_submap;  // in time order
     for (size_t i = 0; i < nodes.size(); ++i) nodes_of_submap[nodes[i].submap].push_back(int(i));
     const auto nearest = [&](const std::vector<int>& list, Timestamp t) {
-      const auto it = std::lower_bound(list.begin(), list.end(), t,
-                                       [&](int i, Timestamp x) { return nodes[size_t(i)].t < x; });
-      if (it == list.end()) return list.back();
-      if (it == list.begin()) return *it;
-      return t - nodes[size_t(*(it - 1))].t <= nodes[size_t(*it)].t - t ? *(it - 1) : *it;
+      return *NearestInTime(list.begin(), list.end(), t, [&](int i) { return nodes[size_t(i)].t; });
     };
     // A correction that is no correction (the same solve as at the last
     // rebuild) is not written: a submap touched by rounding would hash anew

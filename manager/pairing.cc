@@ -100,19 +100,10 @@ std::vector<FramePair> PairTrackedFrames(const Submap& front, const Submap& back
   for (size_t b = 0; b < back.keyframes.size(); ++b) {
     const Timestamp t = back.keyframes[b].timestamp;
     if (paired[b] || !search.Contains(t, max_dt_ns)) continue;
-    const auto it = std::lower_bound(frames.begin(), frames.end(), t,
-                                     [&](int i, Timestamp v) { return front.frames[i].timestamp < v; });
-    int best = -1;
-    int64_t best_dt = max_dt_ns;
-    for (auto c : {it, it == frames.begin() ? frames.end() : it - 1}) {
-      if (c == frames.end()) continue;
-      const int64_t d = AbsDiff(front.frames[*c].timestamp, t);
-      if (d < best_dt) {
-        best = *c;
-        best_dt = d;
-      }
-    }
-    if (best < 0) continue;
+    const auto it =
+        NearestInTime(frames.begin(), frames.end(), t, [&](int i) { return front.frames[size_t(i)].timestamp; });
+    if (it == frames.end() || AbsDiff(front.frames[size_t(*it)].timestamp, t) >= max_dt_ns) continue;
+    const int best = *it;
     FramePair fp{best, int(b), t - front.frames[best].timestamp, {}};
     const Timestamp tf = front.frames[best].timestamp;
     const auto k = std::lower_bound(kfs.begin(), kfs.end(), tf,

@@ -129,6 +129,12 @@ CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& optio
     culled[s].assign(map->submap(s).keyframes.size(), 0);
   }
 
+  // Passes in time order: "earlier" below is time, not the map's order.
+  const std::vector<int> rank = TimeRanks(*map);
+  std::vector<int> by_time(static_cast<size_t>(n));
+  for (int s = 0; s < n; ++s) by_time[size_t(rank[size_t(s)])] = s;
+  const auto earlier = [&](int a, int b) { return rank[size_t(a)] < rank[size_t(b)]; };
+
   std::vector<double> back_shares;
   std::vector<int> listed_by(clusters.size(), -1);  // the keyframe that last listed a cluster
   int keyframe_stamp = 0;
@@ -167,7 +173,7 @@ CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& optio
       for (int o = begin[size_t(root)]; o < begin[size_t(root) + 1] && int(seen.size()) < needed; ++o) {
         const Observer& ob = observers[size_t(o)];
         if ((ob.submap == s && ob.keyframe == int(k)) ||
-            (other_fronts && (ob.submap >= s || map->submap(ob.submap).source != SubmapSource::kFront)) ||
+            (other_fronts && (!earlier(ob.submap, s) || map->submap(ob.submap).source != SubmapSource::kFront)) ||
             ob.octave > oct + options.culling_octave_tolerance || culled[size_t(ob.submap)][size_t(ob.keyframe)])
           continue;
         const std::pair<int, int> key{ob.submap, ob.keyframe};
@@ -230,13 +236,15 @@ CullingReport CullRedundantKeyframes(GlobalMap* map, const ManagerOptions& optio
     for (const LoopDetection* d : it->second) {
       if (double(d->inliers) < options.culling_loop_ratio * own) continue;
       const int m = map->Find(d->match_submap);
-      if (m < 0 || m >= s || map->submap(m).source != SubmapSource::kFront || !map->Connected(m, s)) continue;
+      if (m < 0 || !earlier(m, s) || map->submap(m).source != SubmapSource::kFront || !map->Connected(m, s))
+        continue;
       if (alive_near(m, d->match_time)) return true;
     }
     return false;
   };
   if (options.culling_revisit_ratio > 0 || options.culling_loop_ratio > 0) {
-    for (int s = n - 1; s >= 0; --s) {
+    for (int r = n - 1; r >= 0; --r) {
+      const int s = by_time[size_t(r)];
       const Submap& m = map->submap(s);
       if (m.source == SubmapSource::kBack) continue;
       for (size_t k = 0; k < m.keyframes.size() && alive[size_t(s)] > 1; ++k) {

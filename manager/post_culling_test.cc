@@ -156,13 +156,15 @@ TEST(PostCulling, ARevisitTheLoopSearchVerifiedIsCulled) {
     }
     return s;
   };
-  const auto run = [&](bool connected, const ManagerOptions& o) {
+  // reversed: the map lists the passes newest first (as a loaded map lists
+  // its raw submaps before the baked ones): "earlier" is time, not the order.
+  const auto run = [&](bool connected, const ManagerOptions& o, bool reversed = false) {
     GlobalMap map;
-    map.AddSubmap(pass(1, 100, 0));
-    map.AddSubmap(pass(2, 200, 10000));
-    map.AddSubmap(pass(3, 300, 20000));
-    map.Union(0, 1);
-    if (connected) map.Union(0, 2);
+    const std::vector<int64_t> order = reversed ? std::vector<int64_t>{3, 2, 1} : std::vector<int64_t>{1, 2, 3};
+    for (int64_t id : order) map.AddSubmap(pass(id, 100.0 * double(id), 10000 * (id - 1)));
+    const auto at = [&](int64_t id) { return map.Find({SubmapSource::kFront, id}); };
+    map.Union(at(1), at(2));
+    if (connected) map.Union(at(1), at(3));
     const auto detection = [&](int64_t q_submap, int64_t q_kf, int64_t m_submap, int64_t m_kf, int inliers) {
       LoopDetection d;
       d.query_submap = {SubmapSource::kFront, q_submap};
@@ -181,9 +183,9 @@ TEST(PostCulling, ARevisitTheLoopSearchVerifiedIsCulled) {
     detection(1, 3, 2, 3, 100);  // the first pass matched in the later one: kept
     detection(3, 4, 1, 4, 90);   // the third pass: a revisit if it is in the same component
     const CullingReport r = CullRedundantKeyframes(&map, o);
-    std::vector<std::vector<int64_t>> ids(3);
-    for (int s = 0; s < 3; ++s)
-      for (const Keyframe& kf : map.submap(s).keyframes) ids[size_t(s)].push_back(kf.id);
+    std::vector<std::vector<int64_t>> ids(3);  // by pass
+    for (int64_t id = 1; id <= 3; ++id)
+      for (const Keyframe& kf : map.submap(at(id)).keyframes) ids[size_t(id - 1)].push_back(kf.id);
     return std::pair(r, ids);
   };
   const ManagerOptions o;
@@ -192,6 +194,9 @@ TEST(PostCulling, ARevisitTheLoopSearchVerifiedIsCulled) {
   EXPECT_EQ(ids[0], (std::vector<int64_t>{0, 1, 2, 3, 4, 5}));
   EXPECT_EQ(ids[1], (std::vector<int64_t>{1, 3, 4, 5}));
   EXPECT_EQ(ids[2], (std::vector<int64_t>{0, 1, 2, 3, 5}));
+  const auto [r_reversed, ids_reversed] = run(true, o, /*reversed=*/true);
+  EXPECT_EQ(r_reversed.culled_revisit_detected, 3);
+  EXPECT_EQ(ids_reversed, ids);
   std::tie(r, ids) = run(false, o);
   EXPECT_EQ(r.culled_revisit_detected, 2);
   EXPECT_EQ(ids[2].size(), 6u);

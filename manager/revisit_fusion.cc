@@ -62,11 +62,11 @@ int64_t CellKey(const Eigen::Vector3d& c, double cell) {
 std::vector<int64_t> Signature(const GlobalMap& map, const std::vector<int>& fronts,
                                const std::vector<uint64_t>& pose_hash, int s) {
   std::vector<int64_t> sig;
-  for (int m : fronts) {
-    if (m > s) break;
+  for (int m : fronts) {  // in time order: s and the passes before it
     const Submap& sm = map.submap(m);
     sig.insert(sig.end(), {int64_t(map.Key(m).source), map.Key(m).id, int64_t(sm.keyframes.size()),
                            int64_t(sm.points.size()), int64_t(sm.frames.size()), int64_t(pose_hash[size_t(m)])});
+    if (m == s) break;
   }
   return sig;
 }
@@ -108,12 +108,13 @@ RevisitFusionReport FuseRevisitPoints(GlobalMap* map, const ManagerOptions& o, c
   }
   const double cos_max = std::cos(o.revisit_max_angle_deg * M_PI / 180.0);
   int search_stamp = 0;
+  const std::vector<int> rank = TimeRanks(*map);  // "earlier" is time, not the map's order
   for (int root : map->ComponentsBySize()) {
     std::vector<int> fronts;
     for (int m : map->Members(root))
       if (map->submap(m).source == SubmapSource::kFront) fronts.push_back(m);
     if (fronts.size() < 2) continue;
-    std::sort(fronts.begin(), fronts.end());
+    std::sort(fronts.begin(), fronts.end(), [&](int a, int b) { return rank[size_t(a)] < rank[size_t(b)]; });
     std::vector<Place> places;
     for (int s : fronts) {
       const Submap& m = map->submap(s);
@@ -151,7 +152,7 @@ RevisitFusionReport FuseRevisitPoints(GlobalMap* map, const ManagerOptions& o, c
             if (it == cells.end()) continue;
             for (int j : it->second) {
               const Place& a = places[size_t(j)];
-              if (a.submap >= b.submap) continue;  // earlier submaps only: each pair once
+              if (rank[size_t(a.submap)] >= rank[size_t(b.submap)]) continue;  // earlier passes only: each pair once
               const double d = (a.centre - centre).norm();
               if (d < radius && a.axis.dot(axis) > cos_max) near.push_back({d, j});
             }
