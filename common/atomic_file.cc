@@ -1,6 +1,7 @@
 #include "common/atomic_file.h"
 
 #include <fcntl.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -38,41 +39,95 @@ bool WriteAll(int fd, const uint8_t* p, size_t n) {
 
 }  // namespace
 
-bool WriteFileAtomically(const std::string& path, const void* data, size_t size, std::string* why, unsigned mode) {
+AtomicFileWriter::AtomicFileWriter(const std::string& path, unsigned mode) : path_(path) {
   // Unique per process and call: two threads may save different files of one folder.
   static std::atomic<uint64_t> counter{0};
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
+  tmp_ = path + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
   // A stale temporary of a crashed writer (same pid) would keep its old mode
   // through O_TRUNC: remove it and create the file anew with this mode.
-  ::unlink(tmp.c_str());
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, mode);
-  if (fd < 0) {
-    if (why) *why = Errno("cannot create", tmp);
+  ::unlink(tmp_.c_str());
+  fd_ = ::open(tmp_.c_str(), O_RDWR | O_CREAT | O_EXCL | O_CLOEXEC, mode);
+  if (fd_ < 0) error_ = Errno("cannot create", tmp_);
+}
+
+AtomicFileWriter::~AtomicFileWriter() {
+  if (fd_ >= 0) {
+    ::close(fd_);
+    ::unlink(tmp_.c_str());
+  }
+}
+
+bool AtomicFileWriter::Fail(const std::string& what) {
+  if (error_.empty()) error_ = Errno(what, tmp_);
+  return false;
+}
+
+bool AtomicFileWriter::Append(const void* data, size_t size) {
+  if (!error_.empty()) return false;
+  if (!WriteAll(fd_, static_cast<const uint8_t*>(data), size)) return Fail("cannot write");
+  size_ += size;
+  return true;
+}
+
+bool AtomicFileWriter::Patch(uint64_t offset, const void* data, size_t size) {
+  if (!error_.empty()) return false;
+  if (offset + size > size_) {
+    error_ = "cannot patch " + tmp_ + ": beyond what was written";
     return false;
   }
-  if (!WriteAll(fd, static_cast<const uint8_t*>(data), size) || ::fsync(fd) != 0) {
-    if (why) *why = Errno("cannot write", tmp);
-    ::close(fd);
-    ::unlink(tmp.c_str());
-    return false;
+  const auto* p = static_cast<const uint8_t*>(data);
+  while (size > 0) {
+    const ssize_t w = ::pwrite(fd_, p, size, off_t(offset));
+    if (w < 0) {
+      if (errno == EINTR) continue;
+      return Fail("cannot write");
+    }
+    p += w;
+    offset += uint64_t(w);
+    size -= size_t(w);
   }
-  if (::close(fd) != 0) {
-    if (why) *why = Errno("cannot write", tmp);
-    ::unlink(tmp.c_str());
-    return false;
+  return true;
+}
+
+std::unique_ptr<AtomicFileWriter::View> AtomicFileWriter::Read(uint64_t offset, uint64_t size) {
+  if (!error_.empty() || offset + size > size_) return nullptr;
+  const size_t mapped = size_t(offset + size);
+  if (mapped == 0) return std::make_unique<View>(nullptr, 0, nullptr);
+  void* base = ::mmap(nullptr, mapped, PROT_READ, MAP_SHARED, fd_, 0);
+  if (base == MAP_FAILED) {
+    Fail("cannot read back");
+    return nullptr;
   }
-  if (::rename(tmp.c_str(), path.c_str()) != 0) {
-    if (why) *why = Errno("cannot rename onto", path);
-    ::unlink(tmp.c_str());
+  return std::make_unique<View>(base, mapped, static_cast<const uint8_t*>(base) + offset);
+}
+
+AtomicFileWriter::View::~View() {
+  if (base_) ::munmap(base_, mapped_);
+}
+
+bool AtomicFileWriter::Commit(std::string* why) {
+  if (error_.empty() && ::fsync(fd_) != 0) Fail("cannot write");
+  if (fd_ >= 0 && ::close(fd_) != 0) Fail("cannot write");
+  fd_ = -1;
+  if (error_.empty() && ::rename(tmp_.c_str(), path_.c_str()) != 0) error_ = Errno("cannot rename onto", path_);
+  if (!error_.empty()) {
+    ::unlink(tmp_.c_str());
+    if (why) *why = error_;
     return false;
   }
   // The rename itself must reach the disk.
-  const int dfd = ::open(DirName(path).c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  const int dfd = ::open(DirName(path_).c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (dfd >= 0) {
     ::fsync(dfd);
     ::close(dfd);
   }
   return true;
+}
+
+bool WriteFileAtomically(const std::string& path, const void* data, size_t size, std::string* why, unsigned mode) {
+  AtomicFileWriter w(path, mode);
+  w.Append(data, size);
+  return w.Commit(why);
 }
 
 bool ReadFileBytes(const std::string& path, std::vector<uint8_t>* out, std::string* why) {

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "common/geometry.h"
+#include "common/test_temp_dir.h"
 #include "common/timestamp.h"
 #include "manager/synthetic_submaps.h"
 
@@ -90,22 +91,7 @@ inline Scenario MakeScenario(uint32_t seed = 3, double pixel_noise = 1.0, int nu
 }
 
 namespace fs = std::filesystem;
-
-// A fresh folder under $TMPDIR, removed at the end.
-class TempDir {
- public:
-  TempDir() {
-    static int n = 0;  // NOLINT: test code
-    path_ = fs::temp_directory_path() / ("rumi_mgrsvc_" + std::to_string(::getpid()) + "_" + std::to_string(n++));
-    fs::remove_all(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  std::string str() const { return path_.string(); }
-  std::string operator/(const std::string& f) const { return (path_ / f).string(); }
-
- private:
-  fs::path path_;
-};
+using rumi::TempDir;  // common/test_temp_dir.h
 
 struct TumRow {
   Timestamp t;
