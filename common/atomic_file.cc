@@ -71,7 +71,7 @@ bool AtomicFileWriter::Append(const void* data, size_t size) {
 
 bool AtomicFileWriter::Patch(uint64_t offset, const void* data, size_t size) {
   if (!error_.empty()) return false;
-  if (offset + size > size_) {
+  if (offset > size_ || size > size_ - offset) {
     error_ = "cannot patch " + tmp_ + ": beyond what was written";
     return false;
   }
@@ -90,7 +90,7 @@ bool AtomicFileWriter::Patch(uint64_t offset, const void* data, size_t size) {
 }
 
 std::unique_ptr<AtomicFileWriter::View> AtomicFileWriter::Read(uint64_t offset, uint64_t size) {
-  if (!error_.empty() || offset + size > size_) return nullptr;
+  if (!error_.empty() || offset > size_ || size > size_ - offset) return nullptr;  // a question: not sticky
   const size_t mapped = size_t(offset + size);
   if (mapped == 0) return std::make_unique<View>(nullptr, 0, nullptr);
   void* base = ::mmap(nullptr, mapped, PROT_READ, MAP_SHARED, fd_, 0);

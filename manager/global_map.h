@@ -116,10 +116,13 @@ class GlobalMap {
   LoopMemory loops_;
 };
 
-// Each submap's rank in time order of its first keyframe (ties, and
-// submaps without keyframes, by index). "An earlier pass" is this order,
-// not the map's: a manager's base precedes what it received, and a loaded
-// map lists its raw submaps before the baked ones.
+// Each submap's rank in time order of its first keyframe (ties by index;
+// a submap without keyframes first). "An earlier pass" is this order, not
+// the map's: a manager's base precedes what it received, and a loaded map
+// lists its raw submaps before the baked ones. Frame times are capture
+// times (design contract), so one camera's passes follow each other; a
+// recording replayed again into the same map would interleave with its
+// first replay.
 std::vector<int> TimeRanks(const GlobalMap& map);
 
 }  // namespace rumi

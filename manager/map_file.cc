@@ -147,10 +147,15 @@ bool SaveEntries(size_t n, const SubmapAt& submap, const Sim3At& sim3, const Par
   PutLoops(&chunk, loops);
   flush();
   const uint64_t body_size = out.size() - body_at;
-  if (const auto body = out.Read(body_at, body_size)) {
-    const uint64_t patch[2] = {body_size, Checksum64(body->data(), body_size)};
-    out.Patch(size_at, patch, sizeof(patch));
+  const auto body = out.Read(body_at, body_size);
+  if (!body) {  // never commit a header without its checksum
+    std::string error;
+    if (!out.Commit(&error) && why) *why = error;
+    if (why && why->empty()) *why = "cannot read back " + path + " to checksum it";
+    return false;
   }
+  const uint64_t patch[2] = {body_size, Checksum64(body->data(), body_size)};
+  out.Patch(size_at, patch, sizeof(patch));
   return out.Commit(why);
 }
 

@@ -58,7 +58,7 @@ int64_t CellKey(const Eigen::Vector3d& c, double cell) {
 
 // What a submap's search depends on: its own shape and keyframe poses (a
 // merge's welding moves them) and those of the earlier front submaps of its
-// component (fronts sorted by index; pose_hash[m]: KeyframePoseFingerprint).
+// component (fronts in time order, TimeRanks; pose_hash[m]: KeyframePoseFingerprint).
 std::vector<int64_t> Signature(const GlobalMap& map, const std::vector<int>& fronts,
                                const std::vector<uint64_t>& pose_hash, int s) {
   std::vector<int64_t> sig;

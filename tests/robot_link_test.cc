@@ -152,9 +152,9 @@ TEST_F(RobotLink, LossAndJitterEndToEnd) {
   // A walk with frames missing in the middle (a loss for the front, a window
   // for the back), 5 s at 30 fps, walked at half speed: this test checks the
   // link and the session's map, not the front's speed. At full speed a
-  // front starved by the suite's other tests (-j2 under CI) tracked so few
-  // frames that its submaps were refused by the merge check (a fresh-check
-  // run on 2026-11-29 ended at covered 0.39, where runs alone pass).
+  // front sharing 2 cores with the session's back, COLMAP and manager split
+  // into two small submaps that the merge check refused (a fresh-check run
+  // on 2026-11-29 ended at covered 0.39, where other runs pass).
   const fs::path seq = Synth("drop", 150, 2);
   const nlohmann::json link = RunSession(seq, "", {"--loss", "0.1", "--latency-ms", "50", "--jitter-ms", "30",
                                                    "--clock-offset-ms", "-2500.25", "--drift-ppm", "20", "--rate", "0.5"});

@@ -212,7 +212,7 @@ void Run(const Args& a) {
     const Timestamp data_t = t0 + static_cast<int64_t>(play_ns * a.rate);
     if (imu && now >= next_imu) {
       float acc[3], gyr[3];
-      imu->Sample(data_t, acc, gyr, a.rate);
+      imu->Sample(data_t, acc, gyr, moving ? a.rate : 0.0);  // a halted robot stands: gravity only
       robot->AddImu(acc, gyr);
       next_imu = std::max(now, next_imu + static_cast<int64_t>(1e9 / a.imu_hz));
     }
