@@ -46,6 +46,8 @@ class AtomicFileWriter {
   class View;
   std::unique_ptr<View> Read(uint64_t offset, uint64_t size);
   uint64_t size() const { return size_; }
+  // The first error ("" while all went well).
+  const std::string& error() const { return error_; }
   bool Commit(std::string* why);
 
  private:

@@ -90,8 +90,9 @@ TEST_F(AtomicFile, AWriterDroppedOrFailedLeavesTheTarget) {
   ASSERT_TRUE(w.Append("abc", 3));
   EXPECT_FALSE(w.Patch(2, "xy", 2));  // beyond the end: an error, and every later call fails
   EXPECT_FALSE(w.Append("d", 1));
+  EXPECT_NE(w.error().find("patch"), std::string::npos) << w.error();
   EXPECT_FALSE(w.Commit(&why));
-  EXPECT_NE(why.find("patch"), std::string::npos) << why;
+  EXPECT_EQ(why, w.error());
   EXPECT_EQ(Slurp(P("k")), "kept");
   EXPECT_EQ(Others("k"), 0);
 }

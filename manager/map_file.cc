@@ -148,10 +148,8 @@ bool SaveEntries(size_t n, const SubmapAt& submap, const Sim3At& sim3, const Par
   flush();
   const uint64_t body_size = out.size() - body_at;
   const auto body = out.Read(body_at, body_size);
-  if (!body) {  // never commit a header without its checksum
-    std::string error;
-    if (!out.Commit(&error) && why) *why = error;
-    if (why && why->empty()) *why = "cannot read back " + path + " to checksum it";
+  if (!body) {  // never commit a header without its checksum: the writer drops its temporary
+    if (why) *why = out.error().empty() ? "cannot read back " + path + " to checksum it" : out.error();
     return false;
   }
   const uint64_t patch[2] = {body_size, Checksum64(body->data(), body_size)};
