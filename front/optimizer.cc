@@ -6,6 +6,8 @@
 #include <Eigen/Cholesky>
 #include <cmath>
 
+#include "common/ceres_util.h"
+
 namespace rumi {
 
 int OptimizePose(TrackFrame* f, const PinholeCamera& cam, const ScalePyramid& pyr) {
@@ -187,13 +189,8 @@ bool SolveLocalBa(LocalBaProblem* pb, const PinholeCamera& cam, const ScalePyram
       problem.SetParameterBlockConstant(pb->t[i].data());
     }
   }
-  ceres::Solver::Options so;
-  so.linear_solver_type = BaSolver();
-  so.max_num_iterations = iterations;
+  ceres::Solver::Options so = CeresSolverOptions(BaSolver(), iterations);
   so.max_solver_time_in_seconds = max_time_s;
-  so.num_threads = 1;
-  so.minimizer_progress_to_stdout = false;
-  so.logging_type = ceres::SILENT;
   AbortCallback cb(abort);
   so.callbacks.push_back(&cb);
   ceres::Solver::Summary summary;

@@ -7,7 +7,7 @@
 #include <memory>
 #include <set>
 
-#include "manager/ceres_util.h"
+#include "common/ceres_util.h"
 
 namespace rumi {
 namespace {
@@ -159,7 +159,7 @@ PoseGraphResult OptimizePoseGraph(std::vector<Sim3>* S_w, const std::vector<Pose
     problem.SetParameterBlockConstant(nodes[f].q.coeffs().data());
     problem.SetParameterBlockConstant(nodes[f].t.data());
   }
-  ceres::Solver::Options so = ManagerSolverOptions(ceres::SPARSE_NORMAL_CHOLESKY, o.max_iterations);
+  ceres::Solver::Options so = CeresSolverOptions(ceres::SPARSE_NORMAL_CHOLESKY, o.max_iterations);
   // Solved to convergence, not to Ceres's default 1e-6 change in cost: the
   // manager solves the same graph again at later rebuilds (loop closure puts
   // the loops it closed back in with one solve) and must land where it did

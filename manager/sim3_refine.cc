@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "manager/ceres_util.h"
+#include "common/ceres_util.h"
 #include "manager/submap_index.h"
 
 namespace rumi {
@@ -94,7 +94,7 @@ int Solve(const std::vector<Sim3Observation>& obs, const ManagerOptions& o, Sim3
         MakeRobustLoss(o.robust_loss, o.robust_loss_scale_px), &log_s, q.coeffs().data(), t.data());
   }
   problem.SetManifold(q.coeffs().data(), new ceres::EigenQuaternionManifold);
-  const ceres::Solver::Options so = ManagerSolverOptions(ceres::DENSE_QR, o.refine_max_iterations);
+  const ceres::Solver::Options so = CeresSolverOptions(ceres::DENSE_QR, o.refine_max_iterations);
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
   *S = Sim3(std::exp(log_s), q.normalized(), t);

@@ -7,7 +7,7 @@
 #include <unordered_map>
 
 #include "common/stats.h"
-#include "manager/ceres_util.h"
+#include "common/ceres_util.h"
 #include "manager/sim3_alignment.h"
 #include "manager/submap_index.h"
 
@@ -154,7 +154,7 @@ WeldingReport WeldWindow(GlobalMap* map, int front, int back, const std::unorder
     return std::sqrt(2.0 * cost / double(blocks.size()));
   };
   rep.initial_rmse_px = rmse();
-  const ceres::Solver::Options so = ManagerSolverOptions(ceres::SPARSE_SCHUR, options.ba_max_iterations);
+  const ceres::Solver::Options so = CeresSolverOptions(ceres::SPARSE_SCHUR, options.ba_max_iterations);
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
   rep.iterations = int(summary.iterations.size());

@@ -1,5 +1,6 @@
 #pragma once
-// Small Ceres helpers shared by the manager's optimisers.
+// Small Ceres helpers shared by the optimisers of the front and the manager
+// (header-only: common does not link Ceres; its users do).
 #include <ceres/ceres.h>
 
 #include <memory>
@@ -15,10 +16,11 @@ inline ceres::LossFunction* MakeRobustLoss(const std::string& name, double scale
   return new ceres::HuberLoss(scale);
 }
 
-// The one Ceres set-up of the manager's solves (Sim(3) refinement, welding
-// BA): single-threaded (the manager shares the machine with the realtime
-// front), silent, with the problem's linear solver and iteration cap.
-inline ceres::Solver::Options ManagerSolverOptions(ceres::LinearSolverType linear_solver, int max_iterations) {
+// The one Ceres set-up of rumi's solves (the front's bundle adjustments, the
+// manager's Sim(3) refinement, welding BA, pose graph): single-threaded (the
+// processes share the machine with the realtime front), silent, with the
+// problem's linear solver and iteration cap.
+inline ceres::Solver::Options CeresSolverOptions(ceres::LinearSolverType linear_solver, int max_iterations) {
   ceres::Solver::Options so;
   so.linear_solver_type = linear_solver;
   so.max_num_iterations = max_iterations;
