@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 
+#include "common/descriptor_match.h"
 #include "common/orb_extractor.h"
 
 namespace rumi {
@@ -110,22 +111,18 @@ int SearchLocalPoints(TrackFrame* cur, const std::vector<Landmark*>& points, con
     const int level = p->PredictLevel(dist, pyr);
     const double r = radius * (view_cos > 0.998 ? 2.5 : 4.0) * pyr.scales[level];
     const auto cand = f.InArea(u.x(), u.y(), r, level - 1, level);
-    int best = 256, second = 256, best_level = -1, second_level = -1, best_idx = -1;
+    NearestTwo n2;
     const uint8_t* pd = p->descriptor.ptr<uint8_t>();
     for (int j : cand) {
       if (cur->points[j] && !cur->points[j]->obs.empty()) continue;
-      const int d = DescriptorDistance(pd, f.descriptors.ptr<uint8_t>(j));
-      if (d < best) {
-        second = best; second_level = best_level;
-        best = d; best_level = f.keypoints[j].octave; best_idx = j;
-      } else if (d < second) {
-        second = d; second_level = f.keypoints[j].octave;
-      }
+      n2.Add(DescriptorDistance(pd, f.descriptors.ptr<uint8_t>(j)), j);
     }
-    if (best_idx < 0 || best > kDescHigh) continue;
-    if (best_level == second_level && best > 0.8 * second) continue;
-    cur->points[best_idx] = p;
-    cur->outlier[best_idx] = false;
+    if (n2.best_index < 0 || n2.best > kDescHigh) continue;
+    // The ratio test only between candidates of one pyramid level.
+    const auto octave = [&](int j) { return j < 0 ? -1 : f.keypoints[j].octave; };
+    if (octave(n2.best_index) == octave(n2.second_index) && n2.best > 0.8 * n2.second) continue;
+    cur->points[n2.best_index] = p;
+    cur->outlier[n2.best_index] = false;
     ++n;
   }
   return n;
@@ -146,18 +143,16 @@ int SearchKeyFramePoints(TrackFrame* cur, const KeyFrame& kf, const PinholeCamer
     if (!f.InImage(u.x(), u.y())) continue;
     const int level = kf.f->keypoints[i].octave;
     const auto cand = f.InArea(u.x(), u.y(), radius * pyr.scales[level], level - 2, level + 2);
-    int best = 256, second = 256, best_idx = -1;
+    NearestTwo n2;
     const uint8_t* pd = p->descriptor.ptr<uint8_t>();
     for (int j : cand) {
       if (cur->points[j]) continue;
-      const int d = DescriptorDistance(pd, f.descriptors.ptr<uint8_t>(j));
-      if (d < best) { second = best; best = d; best_idx = j; }
-      else if (d < second) second = d;
+      n2.Add(DescriptorDistance(pd, f.descriptors.ptr<uint8_t>(j)), j);
     }
-    if (best_idx < 0 || best > max_desc || best > ratio * second) continue;
-    cur->points[best_idx] = p;
-    cur->outlier[best_idx] = false;
-    hist.Add(kf.f->keypoints[i].angle, f.keypoints[best_idx].angle, best_idx);
+    if (n2.best_index < 0 || n2.best > max_desc || n2.best > ratio * n2.second) continue;
+    cur->points[n2.best_index] = p;
+    cur->outlier[n2.best_index] = false;
+    hist.Add(kf.f->keypoints[i].angle, f.keypoints[n2.best_index].angle, n2.best_index);
     ++n;
   }
   for (int j : hist.Outliers()) { cur->points[j] = nullptr; --n; }
@@ -338,27 +333,6 @@ int Fuse(KeyFrame* kf, const std::vector<Landmark*>& points, const PinholeCamera
     ++n;
   }
   return n;
-}
-
-std::vector<std::pair<int, int>> MatchBruteForce(const cv::Mat& d1, const cv::Mat& d2, int max_dist,
-                                                 double ratio) {
-  std::vector<std::pair<int, int>> out;
-  std::vector<int> best21(d2.rows, 256), arg21(d2.rows, -1);
-  std::vector<int> best12(d1.rows, -1);
-  for (int i = 0; i < d1.rows; ++i) {
-    int best = 256, second = 256, bj = -1;
-    const uint8_t* a = d1.ptr<uint8_t>(i);
-    for (int j = 0; j < d2.rows; ++j) {
-      const int d = DescriptorDistance(a, d2.ptr<uint8_t>(j));
-      if (d < best) { second = best; best = d; bj = j; }
-      else if (d < second) second = d;
-      if (d < best21[j]) { best21[j] = d; arg21[j] = i; }
-    }
-    if (bj >= 0 && best <= max_dist && best < ratio * second) best12[i] = bj;
-  }
-  for (int i = 0; i < d1.rows; ++i)
-    if (best12[i] >= 0 && arg21[best12[i]] == i) out.push_back({i, best12[i]});
-  return out;
 }
 
 }  // namespace rumi

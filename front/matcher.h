@@ -41,8 +41,4 @@ std::vector<std::pair<int, int>> SearchForTriangulation(const KeyFrame& k1, cons
 // Returns the number of fused points.
 int Fuse(KeyFrame* kf, const std::vector<Landmark*>& points, const PinholeCamera& cam, const ScalePyramid& pyr, double radius);
 
-// Brute-force matches (mutual best + ratio) between two descriptor sets.
-std::vector<std::pair<int, int>> MatchBruteForce(const cv::Mat& d1, const cv::Mat& d2, int max_dist,
-                                                 double ratio);
-
 }  // namespace rumi

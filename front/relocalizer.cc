@@ -2,6 +2,7 @@
 
 #include <opencv2/calib3d.hpp>
 
+#include "common/descriptor_match.h"
 #include "front/matcher.h"
 #include "front/optimizer.h"
 
@@ -26,7 +27,9 @@ bool Relocalizer::Localize(TrackFrame* cur, KeyFrame* kf, int min_inliers, const
   if (kidx.size() < 15) return false;
   cv::Mat kd(static_cast<int>(kidx.size()), 32, CV_8U);
   for (size_t i = 0; i < kidx.size(); ++i) kf->f->descriptors.row(kidx[i]).copyTo(kd.row(static_cast<int>(i)));
-  const auto m = MatchBruteForce(f.descriptors, kd, 64, 0.8);
+  const cv::Mat fd = f.descriptors.isContinuous() ? f.descriptors : f.descriptors.clone();  // packed rows
+  const auto m = MatchDescriptors(fd.ptr<uint8_t>(), size_t(fd.rows), kd.ptr<uint8_t>(),
+                                  kidx.size(), {64, 0.8, /*mutual=*/true});
   if (m.size() < 15) return false;
   std::vector<cv::Point3f> obj;
   std::vector<cv::Point2f> img;

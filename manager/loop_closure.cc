@@ -10,6 +10,7 @@
 
 #include <opencv2/calib3d.hpp>
 
+#include "common/descriptor_match.h"
 #include "common/logging.h"
 #include "common/orb_extractor.h"
 #include "common/stats.h"
@@ -78,7 +79,8 @@ bool Verify(const Submap& Q, const Prepared& pq, int q, const Submap& M, const P
       dm.insert(dm.end(), d, d + 32);
       xm.push_back(M.points[size_t(p)].position);
     }
-  const auto matches = MatchDescriptorRows(dq, dm, o.loop_max_hamming, o.loop_ratio);
+  const auto matches = MatchDescriptors(dq.data(), dq.size() / 32, dm.data(), dm.size() / 32,
+                                        {o.loop_max_hamming, o.loop_ratio, /*mutual=*/false});
   out->matches = int(matches.size());
   if (out->matches < o.loop_min_inliers)
     return fail("too few descriptor matches (" + std::to_string(matches.size()) + ")");

@@ -7,6 +7,7 @@
 #include <map>
 #include <opencv2/core.hpp>
 
+#include "common/descriptor_match.h"
 #include "common/logging.h"
 #include "common/orb_extractor.h"
 #include "common/timestamp.h"
@@ -55,45 +56,12 @@ std::vector<int64_t> SeedKeyframes(const Submap& s, const std::vector<int64_t>& 
 
 }  // namespace
 
-std::vector<std::pair<int, int>> MatchDescriptorRows(const std::vector<uint8_t>& da, const std::vector<uint8_t>& db,
-                                                     int max_hamming, double ratio) {
-  const size_t na = da.size() / 32, nb = db.size() / 32;
-  if (na == 0 || nb < 2) return {};
-  // Brute force with the popcount kernel: every pair of two submaps of ~10^4
-  // points each is ~10^8 distances, and cv::BFMatcher's per-row overhead
-  // doubled that cost (a place merge is tried at every rebuild that changed
-  // a front submap).
-  std::map<int, std::pair<int, int>> best_for_b;  // b row -> (distance, a row)
-  for (size_t r = 0; r < na; ++r) {
-    const uint8_t* q = &da[r * 32];
-    int d1 = 257, d2 = 257, j1 = -1;
-    for (size_t c = 0; c < nb; ++c) {
-      const int d = DescriptorDistance(q, &db[c * 32]);
-      if (d < d2) {
-        if (d < d1) {
-          d2 = d1;
-          d1 = d;
-          j1 = int(c);
-        } else {
-          d2 = d;
-        }
-      }
-    }
-    if (j1 < 0 || d1 > max_hamming || !(d1 < ratio * d2)) continue;
-    auto it = best_for_b.find(j1);
-    if (it == best_for_b.end() || d1 < it->second.first) best_for_b[j1] = {d1, int(r)};
-  }
-  std::vector<std::pair<int, int>> out;
-  for (const auto& [brow, v] : best_for_b) out.push_back({v.second, brow});
-  std::sort(out.begin(), out.end());
-  return out;
-}
-
 std::vector<PointMatch> MatchMapPoints(const Submap& a, const Submap& b, int max_hamming, double ratio) {
   std::vector<int> ia, ib;
   const std::vector<uint8_t> da = PointDescriptors(a, &ia), db = PointDescriptors(b, &ib);
   std::vector<PointMatch> out;
-  for (const auto& [ra, rb] : MatchDescriptorRows(da, db, max_hamming, ratio))
+  for (const auto& [ra, rb] : MatchDescriptors(da.data(), da.size() / 32, db.data(), db.size() / 32,
+                                                 {max_hamming, ratio, /*mutual=*/false}))
     out.push_back({a.points[size_t(ia[size_t(ra)])].id, b.points[size_t(ib[size_t(rb)])].id, 1});
   std::sort(out.begin(), out.end(),
             [](const PointMatch& x, const PointMatch& y) { return x.front_point_id < y.front_point_id; });

@@ -21,13 +21,6 @@
 
 namespace rumi {
 
-// Rows of `da` matched to rows of `db` (packed 32-byte ORB descriptors), as
-// (row in da, row in db) sorted by the first: the nearest within max_hamming
-// bits and closer than ratio times the second nearest, one-to-one (the
-// closer claim on a `db` row wins). The manager's one descriptor matcher.
-std::vector<std::pair<int, int>> MatchDescriptorRows(const std::vector<uint8_t>& da, const std::vector<uint8_t>& db,
-                                                     int max_hamming, double ratio);
-
 // Map points of `a` matched to map points of `b` by descriptor (points with a
 // descriptor and at least two observations): nearest within max_hamming bits
 // and closer than ratio times the second nearest, one-to-one (the closer
