@@ -72,6 +72,41 @@ void EndSection(W& w, size_t length_at) {
 // data[0, n).
 void FinishEnvelope(uint8_t* data, size_t n);
 
+// Encoding runs the same body twice (byte_io.h): `body(writer)` writes a
+// whole envelope through a SizeCounter, then through a BufferWriter.
+template <typename Body>
+size_t EnvelopeSize(const Body& body) {
+  SizeCounter c;
+  body(c);
+  return c.size();
+}
+
+// Writes the envelope of `body` into out[0, n), n its EnvelopeSize, and
+// finishes it.
+template <typename Body>
+void WriteEnvelope(const Body& body, uint8_t* out, size_t n) {
+  BufferWriter w(out, n);
+  body(w);
+  FinishEnvelope(out, n);
+}
+
+// The envelope in a buffer of its own.
+template <typename Body>
+std::vector<uint8_t> EncodeEnvelope(const Body& body) {
+  std::vector<uint8_t> out(EnvelopeSize(body));
+  WriteEnvelope(body, out.data(), out.size());
+  return out;
+}
+
+// The envelope written into out[0, capacity); its size, or 0 when it does not fit.
+template <typename Body>
+size_t EncodeEnvelopeInto(const Body& body, uint8_t* out, size_t capacity) {
+  const size_t n = EnvelopeSize(body);
+  if (n > capacity) return 0;
+  WriteEnvelope(body, out, n);
+  return n;
+}
+
 // Validates the envelope and lists its sections. Throws CodecError naming
 // `what` and the problem (foreign data, other kind, newer version, truncation,
 // checksum mismatch).

@@ -116,24 +116,15 @@ void CheckEnd(const BufferReader& r) {
 }  // namespace
 
 size_t EncodedSubmapSize(const Submap& s) {
-  SizeCounter c;
-  EncodeBody(c, s);
-  return c.size();
+  return EnvelopeSize([&](auto& w) { EncodeBody(w, s); });
 }
 
 size_t EncodeSubmapInto(const Submap& s, uint8_t* out, size_t capacity) {
-  const size_t n = EncodedSubmapSize(s);
-  if (n > capacity) return 0;
-  BufferWriter w(out, n);
-  EncodeBody(w, s);
-  FinishEnvelope(out, n);
-  return n;
+  return EncodeEnvelopeInto([&](auto& w) { EncodeBody(w, s); }, out, capacity);
 }
 
 std::vector<uint8_t> EncodeSubmap(const Submap& s) {
-  std::vector<uint8_t> out(EncodedSubmapSize(s));
-  EncodeSubmapInto(s, out.data(), out.size());
-  return out;
+  return EncodeEnvelope([&](auto& w) { EncodeBody(w, s); });
 }
 
 bool DecodeSubmap(const uint8_t* data, size_t size, Submap* out, std::string* error) {

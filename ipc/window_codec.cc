@@ -110,34 +110,17 @@ void EncodeBody(W& w, const ImageWindow& win, const PngFrames* png = nullptr) {
 }  // namespace
 
 size_t EncodedWindowSize(const ImageWindow& w) {
-  SizeCounter c;
-  EncodeBody(c, w);
-  return c.size();
+  return EnvelopeSize([&](auto& writer) { EncodeBody(writer, w); });
 }
 
 size_t EncodeWindowInto(const ImageWindow& w, uint8_t* out, size_t capacity) {
-  const size_t n = EncodedWindowSize(w);
-  if (n > capacity) return 0;
-  BufferWriter bw(out, n);
-  EncodeBody(bw, w);
-  FinishEnvelope(out, n);
-  return n;
+  return EncodeEnvelopeInto([&](auto& writer) { EncodeBody(writer, w); }, out, capacity);
 }
 
 std::vector<uint8_t> EncodeWindow(const ImageWindow& w, WindowPixels pixels) {
-  if (pixels == WindowPixels::kRaw) {
-    std::vector<uint8_t> out(EncodedWindowSize(w));
-    EncodeWindowInto(w, out.data(), out.size());
-    return out;
-  }
+  if (pixels == WindowPixels::kRaw) return EncodeEnvelope([&](auto& writer) { EncodeBody(writer, w); });
   const PngFrames png = EncodePng(w);
-  SizeCounter c;
-  EncodeBody(c, w, &png);
-  std::vector<uint8_t> out(c.size());
-  BufferWriter bw(out.data(), out.size());
-  EncodeBody(bw, w, &png);
-  FinishEnvelope(out.data(), out.size());
-  return out;
+  return EncodeEnvelope([&](auto& writer) { EncodeBody(writer, w, &png); });
 }
 
 bool DecodeWindow(const uint8_t* data, size_t size, ImageWindow* out, bool in_place,

@@ -27,20 +27,7 @@ std::string Str(const char* s) { return s ? s : ""; }
 
 SnapshotStatus FromDds(const rumi_dds_Status& d) {
   SnapshotStatus s;
-  s.instance = Str(d.instance);
-  s.state = Str(d.state);
-  s.stamp_ns = d.stamp_ns;
-  s.rebuilds = d.rebuilds;
-  s.submaps_front = d.submaps_front;
-  s.submaps_back = d.submaps_back;
-  s.components = d.components;
-  s.keyframes = d.keyframes;
-  s.points = d.points;
-  s.trajectory_frames = d.trajectory_frames;
-  s.last_save = Str(d.last_save);
-  s.grid = Str(d.grid);
-  s.json = Str(d.json);
-  CopyLinkFields(d.link, &s.link);
+  CopyStatusFields(d, &s, Str);
   return s;
 }
 

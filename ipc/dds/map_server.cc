@@ -44,21 +44,8 @@ constexpr size_t kMaxStreamedGridBytes = 4u << 20;
 
 rumi_dds_Status ToDds(const SnapshotStatus& s) {
   rumi_dds_Status d{};
-  d.instance = C(s.instance);
+  CopyStatusFields(s, &d, C);
   d.version = kDdsProtocolVersion;
-  d.stamp_ns = s.stamp_ns;
-  d.state = C(s.state);
-  d.rebuilds = s.rebuilds;
-  d.submaps_front = s.submaps_front;
-  d.submaps_back = s.submaps_back;
-  d.components = s.components;
-  d.keyframes = s.keyframes;
-  d.points = s.points;
-  d.trajectory_frames = s.trajectory_frames;
-  d.last_save = C(s.last_save);
-  d.grid = C(s.grid);
-  d.json = C(s.json);
-  CopyLinkFields(s.link, &d.link);
   return d;
 }
 

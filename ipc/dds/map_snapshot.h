@@ -65,6 +65,26 @@ struct SnapshotStatus {
   SnapshotLink link;
 };
 
+// SnapshotStatus and the DDS type rumi_dds_Status name their fields alike too;
+// `text` converts a string field (std::string to the DDS's char* and back).
+template <class From, class To, class Text>
+void CopyStatusFields(const From& f, To* t, const Text& text) {
+  t->instance = text(f.instance);
+  t->state = text(f.state);
+  t->stamp_ns = f.stamp_ns;
+  t->rebuilds = f.rebuilds;
+  t->submaps_front = f.submaps_front;
+  t->submaps_back = f.submaps_back;
+  t->components = f.components;
+  t->keyframes = f.keyframes;
+  t->points = f.points;
+  t->trajectory_frames = f.trajectory_frames;
+  t->last_save = text(f.last_save);
+  t->grid = text(f.grid);
+  t->json = text(f.json);
+  CopyLinkFields(f.link, &t->link);
+}
+
 struct SnapshotKeyframe {
   int64_t id = -1;
   Timestamp timestamp = 0;
