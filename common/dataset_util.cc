@@ -46,60 +46,6 @@ std::string JoinPath(const std::string& a, const std::string& b) {
   return (fs::path(a) / b).string();
 }
 
-std::vector<std::string> SplitFields(const std::string& line, bool commas) {
-  std::vector<std::string> out;
-  std::string cur;
-  for (char c : line) {
-    if (std::isspace(static_cast<unsigned char>(c)) || (commas && c == ',')) {
-      if (!cur.empty()) out.push_back(cur);
-      cur.clear();
-    } else {
-      cur += c;
-    }
-  }
-  if (!cur.empty()) out.push_back(cur);
-  return out;
-}
-
-namespace {
-
-bool ParseNs(const std::string& tok, Timestamp* ns) {
-  if (tok.empty()) return false;
-  char* stop = nullptr;
-  errno = 0;
-  const long long v = std::strtoll(tok.c_str(), &stop, 10);
-  if (stop != tok.c_str() + tok.size() || errno == ERANGE) return false;
-  *ns = static_cast<Timestamp>(v);
-  return true;
-}
-
-bool ParseDouble(const std::string& tok, double* v) {
-  if (tok.empty()) return false;
-  char* stop = nullptr;
-  errno = 0;
-  *v = std::strtod(tok.c_str(), &stop);
-  return stop == tok.c_str() + tok.size() && errno != ERANGE && std::isfinite(*v);
-}
-
-}  // namespace
-
-std::vector<std::pair<int, std::string>> ReadDataLines(const std::string& file) {
-  std::ifstream in(file);
-  if (!in) throw std::runtime_error("cannot open " + file);
-  std::vector<std::pair<int, std::string>> out;
-  std::string raw;
-  int line = 0;
-  while (std::getline(in, raw)) {
-    ++line;
-    size_t b = 0, e = raw.size();
-    while (b < e && std::isspace(static_cast<unsigned char>(raw[b]))) ++b;
-    while (e > b && std::isspace(static_cast<unsigned char>(raw[e - 1]))) --e;
-    if (b == e || raw[b] == '#') continue;
-    out.emplace_back(line, raw.substr(b, e - b));
-  }
-  return out;
-}
-
 std::vector<ImageEntry> ReadImageIndex(const std::string& file, const std::string& base_dir,
                                        TimeUnit unit, bool commas, int time_col, int path_col) {
   RequireFile(file, "image index");
@@ -113,7 +59,7 @@ std::vector<ImageEntry> ReadImageIndex(const std::string& file, const std::strin
     }
     ImageEntry e;
     e.line = line;
-    const bool ok = unit == TimeUnit::kSeconds ? ParseSecondsToNs(f[time_col], &e.t) : ParseNs(f[time_col], &e.t);
+    const bool ok = unit == TimeUnit::kSeconds ? ParseSecondsToNs(f[time_col], &e.t) : ParseInt64(f[time_col], &e.t);
     if (!ok) {
       ThrowAtLine(file, line, "bad timestamp '" + f[time_col] + "'" +
                                   (unit == TimeUnit::kNanoseconds ? " (expected integer nanoseconds)" : ""));
@@ -170,7 +116,7 @@ void ReadCalibTxt(const std::string& path, PinholeCameraOptions* o) {
     double p[12];
     if (f.size() != 12) ThrowAtLine(path, line, "P0 needs 12 numbers, got " + std::to_string(f.size()));
     for (int i = 0; i < 12; ++i) {
-      if (!ParseDouble(f[i], &p[i])) ThrowAtLine(path, line, "P0 entry '" + f[i] + "' is not a number");
+      if (!ParseFiniteDouble(f[i], &p[i])) ThrowAtLine(path, line, "P0 entry '" + f[i] + "' is not a number");
     }
     o->fx = p[0];
     o->cx = p[2];
@@ -187,7 +133,7 @@ void ReadCalibTxt(const std::string& path, PinholeCameraOptions* o) {
   }
   double v[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
   for (size_t i = 0; i < f.size(); ++i) {
-    if (!ParseDouble(f[i], &v[i])) ThrowAtLine(path, line, "field " + std::to_string(i + 1) + " '" + f[i] + "' is not a number");
+    if (!ParseFiniteDouble(f[i], &v[i])) ThrowAtLine(path, line, "field " + std::to_string(i + 1) + " '" + f[i] + "' is not a number");
   }
   o->fx = v[0];
   o->fy = v[1];

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "common/dataset.h"
+#include "common/text_fields.h"
 #include "common/trajectory.h"
 
 namespace rumi {
@@ -30,9 +31,6 @@ void RequireDirectory(const std::string& path, const std::string& what);
 bool IsFile(const std::string& path);
 bool IsDirectory(const std::string& path);
 std::string JoinPath(const std::string& a, const std::string& b);
-
-// Splits on whitespace and (when commas is true) on commas.
-std::vector<std::string> SplitFields(const std::string& line, bool commas);
 
 enum class TimeUnit { kSeconds, kNanoseconds };
 // Reads an image index: one image per data line, '#' comments and blank lines
@@ -76,9 +74,6 @@ void CheckCamera(const PinholeCameraOptions& o, const std::string& source);
 // the image size). The size is read from the first image when nobody set it.
 PinholeCameraOptions ResolveCamera(const DatasetOptions& options, const std::vector<ImageEntry>& images,
                                    const std::function<bool(PinholeCameraOptions*)>& own);
-
-// Non-comment, non-blank lines of a text file as (line number, trimmed text).
-std::vector<std::pair<int, std::string>> ReadDataLines(const std::string& file);
 
 // FrameSource over a sorted image list with per-image ground truth.
 class ListFrameSource : public FrameSource {

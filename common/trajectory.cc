@@ -15,6 +15,7 @@
 #include <spdlog/spdlog.h>
 
 #include "common/atomic_file.h"
+#include "common/text_fields.h"
 
 namespace rumi {
 namespace {
@@ -27,24 +28,6 @@ constexpr double kUnitTolerance = 1e-2;
   throw std::runtime_error(name + ":" + std::to_string(line) + ": " + why);
 }
 
-std::string Trim(const std::string& s) {
-  size_t b = 0, e = s.size();
-  while (b < e && std::isspace(static_cast<unsigned char>(s[b]))) ++b;
-  while (e > b && std::isspace(static_cast<unsigned char>(s[e - 1]))) --e;
-  return s.substr(b, e - b);
-}
-
-// True for lines that carry no data: blank or '#' comments.
-bool IsSkippable(const std::string& trimmed) { return trimmed.empty() || trimmed[0] == '#'; }
-
-std::vector<std::string> SplitWhitespace(const std::string& s) {
-  std::vector<std::string> out;
-  std::istringstream ss(s);
-  std::string tok;
-  while (ss >> tok) out.push_back(tok);
-  return out;
-}
-
 std::vector<std::string> SplitComma(const std::string& s) {
   std::vector<std::string> out;
   size_t start = 0;
@@ -55,24 +38,6 @@ std::vector<std::string> SplitComma(const std::string& s) {
     start = c + 1;
   }
   return out;
-}
-
-bool ParseFiniteDouble(const std::string& tok, double* v) {
-  if (tok.empty()) return false;
-  char* stop = nullptr;
-  errno = 0;
-  *v = std::strtod(tok.c_str(), &stop);
-  return stop == tok.c_str() + tok.size() && errno != ERANGE && std::isfinite(*v);
-}
-
-bool ParseInt64(const std::string& tok, int64_t* v) {
-  if (tok.empty()) return false;
-  char* stop = nullptr;
-  errno = 0;
-  const long long x = std::strtoll(tok.c_str(), &stop, 10);
-  if (stop != tok.c_str() + tok.size() || errno == ERANGE) return false;
-  *v = static_cast<int64_t>(x);
-  return true;
 }
 
 // Parses tokens[first, first+count) as doubles, naming the bad column.
@@ -184,34 +149,30 @@ const char* ToString(TrajectoryFormat format) {
 
 TrajectoryFormat DetectTrajectoryFormat(const std::string& path) {
   std::ifstream in = OpenForRead(path, "trajectory");
-  std::string raw;
-  int line = 0;
-  while (std::getline(in, raw)) {
-    ++line;
-    const std::string s = Trim(raw);
-    if (IsSkippable(s)) continue;
-    if (s.find(',') != std::string::npos) return TrajectoryFormat::kEuroc;
-    const size_t n = SplitWhitespace(s).size();
-    if (n == 12) return TrajectoryFormat::kKitti;
-    if (n == 8) return TrajectoryFormat::kTum;
-    Fail(path, line,
-         "cannot tell the trajectory format from " + std::to_string(n) +
-             " fields (TUM has 8, KITTI 12, EuRoC is comma-separated); give it explicitly");
-  }
-  throw std::runtime_error("trajectory '" + path + "' has no data lines");
+  bool found = false;
+  TrajectoryFormat format = TrajectoryFormat::kTum;
+  ForEachDataLine(in, [&](int line, const std::string& s) {  // the first data line tells
+    found = true;
+    const size_t n = SplitFields(s, false).size();
+    if (s.find(',') != std::string::npos) format = TrajectoryFormat::kEuroc;
+    else if (n == 12) format = TrajectoryFormat::kKitti;
+    else if (n == 8) format = TrajectoryFormat::kTum;
+    else
+      Fail(path, line,
+           "cannot tell the trajectory format from " + std::to_string(n) +
+               " fields (TUM has 8, KITTI 12, EuRoC is comma-separated); give it explicitly");
+    return false;
+  });
+  if (!found) throw std::runtime_error("trajectory '" + path + "' has no data lines");
+  return format;
 }
 
 Trajectory ParseTumTrajectory(std::istream& in, const std::string& name,
                               const TrajectoryReadOptions& options) {
   Trajectory traj;
   OrderCheck order(name, options.drop_duplicates);
-  std::string raw;
-  int line = 0;
-  while (std::getline(in, raw)) {
-    ++line;
-    const std::string s = Trim(raw);
-    if (IsSkippable(s)) continue;
-    const std::vector<std::string> tok = SplitWhitespace(s);
+  ForEachDataLine(in, [&](int line, const std::string& s) {
+    const std::vector<std::string> tok = SplitFields(s, false);
     if (tok.size() != 8) {
       Fail(name, line,
            "expected 8 fields 't tx ty tz qx qy qz qw', got " + std::to_string(tok.size()));
@@ -223,19 +184,15 @@ Trajectory ParseTumTrajectory(std::istream& in, const std::string& name,
     p.T_wc = PoseFromQuaternion(Eigen::Vector3d(v[0], v[1], v[2]), v[6], v[3], v[4], v[5], name,
                                 line);
     if (order.Add(p.t, line)) traj.push_back(p);
-  }
+    return true;
+  });
   return traj;
 }
 
 Trajectory ParseKittiTrajectory(std::istream& in, const std::string& name) {
   Trajectory traj;
-  std::string raw;
-  int line = 0;
-  while (std::getline(in, raw)) {
-    ++line;
-    const std::string s = Trim(raw);
-    if (IsSkippable(s)) continue;
-    const std::vector<std::string> tok = SplitWhitespace(s);
+  ForEachDataLine(in, [&](int line, const std::string& s) {
+    const std::vector<std::string> tok = SplitFields(s, false);
     if (tok.size() != 12) {
       Fail(name, line,
            "expected 12 fields (3x4 row-major [R|t]), got " + std::to_string(tok.size()));
@@ -259,7 +216,8 @@ Trajectory ParseKittiTrajectory(std::istream& in, const std::string& name) {
     p.t = static_cast<Timestamp>(traj.size()) * kNsPerSecond;
     p.T_wc = Se3(Eigen::Matrix3d(svd.matrixU() * svd.matrixV().transpose()), t);
     traj.push_back(p);
-  }
+    return true;
+  });
   return traj;
 }
 
@@ -267,12 +225,7 @@ Trajectory ParseEurocTrajectory(std::istream& in, const std::string& name,
                                 const TrajectoryReadOptions& options) {
   Trajectory traj;
   OrderCheck order(name, options.drop_duplicates);
-  std::string raw;
-  int line = 0;
-  while (std::getline(in, raw)) {
-    ++line;
-    const std::string s = Trim(raw);
-    if (IsSkippable(s)) continue;
+  ForEachDataLine(in, [&](int line, const std::string& s) {
     const std::vector<std::string> tok = SplitComma(s);
     if (tok.size() < 8) {
       Fail(name, line,
@@ -288,26 +241,23 @@ Trajectory ParseEurocTrajectory(std::istream& in, const std::string& name,
     p.T_wc = PoseFromQuaternion(Eigen::Vector3d(v[0], v[1], v[2]), v[3], v[4], v[5], v[6], name,
                                 line);
     if (order.Add(p.t, line)) traj.push_back(p);
-  }
+    return true;
+  });
   return traj;
 }
 
 std::vector<Timestamp> ParseTimestampList(std::istream& in, const std::string& name) {
   std::vector<Timestamp> out;
   OrderCheck order(name);
-  std::string raw;
-  int line = 0;
-  while (std::getline(in, raw)) {
-    ++line;
-    const std::string s = Trim(raw);
-    if (IsSkippable(s)) continue;
+  ForEachDataLine(in, [&](int line, const std::string& s) {
     // First column only, so TUM rgb.txt / trajectory files work as lists too.
-    const std::string tok = SplitWhitespace(s)[0];
+    const std::string tok = SplitFields(s, false)[0];
     Timestamp t = 0;
     if (!ParseSecondsToNs(tok, &t)) Fail(name, line, "bad timestamp '" + tok + "'");
     order.Add(t, line);
     out.push_back(t);
-  }
+    return true;
+  });
   return out;
 }
 
