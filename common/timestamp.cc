@@ -7,8 +7,18 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 
 namespace rumi {
+
+std::string LocalWallClockText() {
+  const std::time_t t = std::time(nullptr);
+  std::tm local{};
+  localtime_r(&t, &local);
+  char buf[32];
+  std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%S%z", &local);
+  return buf;
+}
 
 Timestamp SecondsToNs(double seconds) {
   return static_cast<Timestamp>(std::llround(seconds * 1e9));

@@ -24,6 +24,9 @@ inline Timestamp WallNowNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
       .count();
 }
+// The local wall clock now, ISO 8601 with the zone ("2026-11-29T16:40:00+0000"),
+// for people reading status files.
+std::string LocalWallClockText();
 Timestamp SecondsToNs(double seconds);
 
 // Parses a decimal seconds string ("1305031102.175304", "-1.5e-3") to ns

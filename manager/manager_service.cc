@@ -83,12 +83,6 @@ std::string JournalPath(const std::string& dir, const SubmapKey& k) {
       .string();
 }
 
-std::string WallClockNow() {
-  const std::time_t t = std::time(nullptr);
-  char buf[32];
-  std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%S%z", std::localtime(&t));
-  return buf;
-}
 }  // namespace
 
 GlobalMap CopyWithout(const GlobalMap& map, const std::vector<SubmapKey>& drop) {
@@ -676,7 +670,7 @@ bool ManagerService::WriteOutputs(std::string* why, bool map_files) {
       return false;
     }
     map_dirty_ = false;
-    stats_.last_save = WallClockNow();
+    stats_.last_save = LocalWallClockText();
   }
   phases.save_map = SecondsSince(t0);
   if (map_files) {
