@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "back/back_submap_builder.h"
+#include "back/colmap_workspace.h"
 #include "back/window_queue.h"
 #include "common/atomic_file.h"
 #include "common/logging.h"

@@ -6,6 +6,7 @@
 
 #include "back/back_result_codec.h"
 #include "back/back_submap_builder.h"
+#include "back/colmap_workspace.h"
 #include "back/remote/remote_protocol.h"
 #include "common/logging.h"
 #include "common/process/exit_codes.h"
