@@ -95,6 +95,13 @@ int LargestFrontSubmap(const std::vector<Submap>& submaps) {
   return best;
 }
 
+Trajectory TrackedPoses(const Submap& s) {
+  Trajectory t;
+  for (const FrameRecord& r : s.frames)
+    if (r.state == TrackingState::kTracking) t.push_back({r.timestamp, r.T_wc});
+  return t;
+}
+
 FrontPublisher::FrontPublisher(const FrontPublisherOptions& options, const IpcOptions& ipc,
                                const SamplerOptions& sampler, const PinholeCameraOptions& camera)
     : o_(options), sampler_(sampler, camera, options.first_window_id) {
@@ -437,10 +444,7 @@ bool FrontPublisher::WriteFinalFiles(const std::vector<Submap>& finished) {
   if (o_.out_dir.empty()) return true;
   bool ok = true;
   const int largest = LargestFrontSubmap(finished);
-  Trajectory traj;
-  if (largest >= 0)
-    for (const FrameRecord& r : finished[largest].frames)
-      if (r.state == TrackingState::kTracking) traj.push_back({r.timestamp, r.T_wc});
+  const Trajectory traj = largest >= 0 ? TrackedPoses(finished[largest]) : Trajectory();
   const std::string front_txt = o_.out_dir + "/front.txt";
   try {
     WriteTumTrajectory(front_txt, traj);

@@ -31,6 +31,7 @@
 
 #include "common/camera.h"
 #include "common/submap.h"
+#include "common/trajectory.h"
 #include "common/option_spec.h"
 #include "common/process/notify.h"
 #include "common/recent_samples.h"
@@ -216,5 +217,7 @@ class FrontPublisher {
 // Index of the finished submap with the most tracked frames (front.txt), or
 // -1 when there is none.
 int LargestFrontSubmap(const std::vector<Submap>& submaps);
+// The poses of a submap's tracked frames (front.txt of the largest).
+Trajectory TrackedPoses(const Submap& s);
 
 }  // namespace rumi
