@@ -13,11 +13,13 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "common/test_require.h"
-#include "back/canned_colmap_model.h"
-#include "common/timestamp.h"
+#include "back/testing/canned_colmap_model.h"
 #include "common/process/exit_codes.h"
 #include "common/process/process_info.h"
+#include "common/testing/process.h"
+#include "common/testing/require.h"
+#include "common/testing/temp_dir.h"
+#include "common/timestamp.h"
 #include "ipc/channels.h"
 
 namespace fs = std::filesystem;
@@ -26,20 +28,17 @@ namespace rumi {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double Since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+const auto& Since = test::SecondsSince;
 
 bool ProcessGone(pid_t pid) { return !ProcessRunning(pid); }
 
 class BackIpcTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    const char* bin = std::getenv("RUMI_BIN_DIR");
-    exe_ = (fs::path(bin ? bin : RUMI_BINARY_DIR "/bin") / "rumi-back").string();
+    exe_ = test::BinPath("rumi-back");
     RUMI_REQUIRE(fs::exists(exe_), "build rumi-back first: " << exe_);
     const std::string name = ::testing::UnitTest::GetInstance()->current_test_info()->name();
-    dir_ = fs::temp_directory_path() / ("rumi_back_ipc_test_" + std::to_string(::getpid()) + "_" + name);
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    tmp_.Create();
     ipc_.instance = "test_" + std::to_string(::getpid()) + "_" + name.substr(0, 8);
     ipc_.window_slot_bytes = 1 << 20;
     ipc_.submap_slot_bytes = 1 << 20;
@@ -51,7 +50,6 @@ class BackIpcTest : public ::testing::Test {
       ::waitpid(pid_, nullptr, 0);
     }
     Cleanup();
-    fs::remove_all(dir_);
   }
   void Cleanup() {
     for (const char* ch : {kWindowChannel, kBackSubmapChannel}) RemoveSegment(SegmentName(ipc_.instance, ch));
@@ -88,35 +86,16 @@ class BackIpcTest : public ::testing::Test {
     std::vector<std::string> args = {exe_, "--instance", ipc_.instance, "--work", (dir_ / "work").string(),
                                      "--wait-for-producer", "20", "--wait-for-consumer", "20"};
     args.insert(args.end(), extra.begin(), extra.end());
-    const std::string log = (dir_ / "back.log").string();
-    pid_ = ::fork();
+    pid_ = test::Start(args, (dir_ / "back.log").string());
     ASSERT_GE(pid_, 0);
-    if (pid_ == 0) {
-      std::vector<char*> argv;
-      for (auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-      argv.push_back(nullptr);
-      if (!std::freopen(log.c_str(), "w", stdout) || ::dup2(::fileno(stdout), 2) < 0) ::_exit(126);
-      ::execv(argv[0], argv.data());
-      ::_exit(127);
-    }
   }
-  // Exit code, or -1 (killed / still running after timeout_s, then SIGKILLed).
+  // Exit code, -2 when killed, -1 when still running after timeout_s.
   int Wait(double timeout_s) {
-    const auto t0 = Clock::now();
-    int st = 0;
-    while (Since(t0) < timeout_s) {
-      if (::waitpid(pid_, &st, WNOHANG) == pid_) {
-        pid_ = -1;
-        return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    return -1;
+    const int rc = test::WaitExit(pid_, timeout_s, false, std::chrono::milliseconds(10));
+    if (rc != -1) pid_ = -1;  // reaped
+    return rc;
   }
-  std::string Log() const {
-    std::ifstream in(dir_ / "back.log");
-    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  }
+  std::string Log() const { return test::Slurp(dir_ / "back.log"); }
   nlohmann::json Stats() const {
     std::ifstream in(dir_ / "work" / "back_stats.json");
     EXPECT_TRUE(in.good()) << Log();
@@ -124,7 +103,8 @@ class BackIpcTest : public ::testing::Test {
   }
 
   std::string exe_;
-  fs::path dir_;
+  TempDir tmp_;
+  fs::path dir_ = tmp_.path();
   IpcOptions ipc_;
   pid_t pid_ = -1;
 };

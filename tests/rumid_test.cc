@@ -13,6 +13,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -20,9 +21,9 @@
 
 #include "common/process/notify.h"
 #include "common/process/process_info.h"
-#include "common/process/subprocess.h"
 #include "ipc/segments.h"
 #include "manager/grid/grid_file.h"
+#include "common/testing/temp_dir.h"
 #include "tests/rumi_cli_util.h"
 
 namespace rumi {
@@ -37,9 +38,8 @@ const auto& Since = test::SecondsSince;
 class Daemon : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = fs::temp_directory_path() / ("rumi_daemon_test_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    tmp_ = std::make_unique<TempDir>();
+    dir_ = tmp_->Create();
     // 3 s of a smooth walk at QVGA: quick to render, tracked, no loss.
     seq_ = dir_ / "smooth";
     ASSERT_EQ(test::RunRumiLogged("synth " + seq_.string() + " --scenario smooth --frames 90 --size 320x240 --seed 4",
@@ -47,7 +47,7 @@ class Daemon : public ::testing::Test {
               0)
         << Slurp(dir_ / "synth.log");
   }
-  static void TearDownTestSuite() { fs::remove_all(dir_); }
+  static void TearDownTestSuite() { tmp_.reset(); }
 
   void TearDown() override {
     if (pid_ > 0) {
@@ -69,24 +69,15 @@ class Daemon : public ::testing::Test {
   fs::path State(const std::string& name) const { return dir_ / ("state_" + name); }
 
   pid_t Start(const std::vector<std::string>& args, const std::vector<std::string>& env, const std::string& log) {
-    SpawnOptions so;
-    so.argv = {Bin("rumid")};
-    so.argv.insert(so.argv.end(), args.begin(), args.end());
-    so.env = env;
-    so.log_path = log;
-    so.truncate_log = true;
-    std::string why;
-    const pid_t pid = SpawnChild(so, &why);
-    EXPECT_GT(pid, 0) << why;
-    return pid;
+    std::vector<std::string> argv = {Bin("rumid")};
+    argv.insert(argv.end(), args.begin(), args.end());
+    return test::Start(argv, log, env);
   }
   static int WaitExit(pid_t pid, double timeout_s) { return test::WaitExit(pid, timeout_s); }
   // Waits (at most 30 s) until the rumid of state folder `name` says it is running.
   bool WaitRunning(const std::string& name) const {
-    const auto t0 = Clock::now();
-    while (Since(t0) < 30 && Status(State(name)).value("state", std::string()) != "running")
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    return Status(State(name)).value("state", std::string()) == "running";
+    return test::WaitFor([&] { return Status(State(name)).value("state", std::string()) == "running"; }, 30,
+                         std::chrono::milliseconds(50));
   }
   static nlohmann::json Status(const fs::path& state) { return test::ReadStatus(state); }
   static pid_t ChildPid(const nlohmann::json& st, const std::string& name) {
@@ -96,9 +87,11 @@ class Daemon : public ::testing::Test {
     return test::StatusChild(st, name).value("ready", false);
   }
 
+  static std::unique_ptr<TempDir> tmp_;
   static fs::path dir_, seq_;
   pid_t pid_ = -1;
 };
+std::unique_ptr<TempDir> Daemon::tmp_;
 fs::path Daemon::dir_, Daemon::seq_;
 
 TEST_F(Daemon, NotifyProtocolWatchdogHangupAndABoundedStop) {
