@@ -227,9 +227,8 @@ TEST_F(BackIpcTest, SigtermCancelsRunningColmapAndSaysSo) {
   const double secs = Since(t1);
   std::printf("rumi-back stopped %.3f s after SIGTERM\n", secs);
   EXPECT_LT(secs, 3.0) << "docs/eval.md: stop within 3 s";
-  const auto t2 = Clock::now();  // orphans are reaped by init: give it a moment
-  while ((!ProcessGone(sh) || !ProcessGone(sleeper)) && Since(t2) < 2)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  // Orphans are reaped by init: give it a moment.
+  test::WaitFor([&] { return ProcessGone(sh) && ProcessGone(sleeper); }, 2, std::chrono::milliseconds(10));
   EXPECT_TRUE(ProcessGone(sh)) << "fake colmap survived";
   EXPECT_TRUE(ProcessGone(sleeper)) << "fake colmap's child survived";
 
@@ -291,8 +290,7 @@ TEST_F(BackIpcTest, KilledBackRetriesItsWindowOnceThenDropsIt) {
   auto run_until_colmap = [&](int round) {
     fs::remove(dir_ / "sleep.pid");
     Start({"--config", config, "--daemon"});
-    const auto t0 = Clock::now();
-    while (!fs::exists(dir_ / "sleep.pid") && Since(t0) < 15) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    test::WaitFor([&] { return fs::exists(dir_ / "sleep.pid"); }, 15, std::chrono::milliseconds(10));
     ASSERT_TRUE(fs::exists(dir_ / "sleep.pid")) << "round " << round << "\n" << Log();
   };
   fs::remove(dir_ / "sleep.pid");
@@ -314,9 +312,7 @@ TEST_F(BackIpcTest, KilledBackRetriesItsWindowOnceThenDropsIt) {
   std::ifstream(dir_ / "sleep.pid") >> sleeper;
   ::kill(pid_, SIGKILL);  // mid-COLMAP
   Wait(5);
-  t0 = Clock::now();
-  while (!ProcessGone(sleeper) && Since(t0) < 5) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  EXPECT_TRUE(ProcessGone(sleeper)) << "COLMAP outlived the killed back";
+  EXPECT_TRUE(test::WaitFor([&] { return ProcessGone(sleeper); }, 5, std::chrono::milliseconds(10))) << "COLMAP outlived the killed back";
   int workspaces = 0;
   for (const auto& e : fs::directory_iterator(dir_ / "ws")) workspaces += e.is_directory();
   EXPECT_EQ(workspaces, 1);  // left by the killed back
@@ -331,13 +327,10 @@ TEST_F(BackIpcTest, KilledBackRetriesItsWindowOnceThenDropsIt) {
   Wait(5);
 
   Start({"--config", config, "--daemon"});
-  t0 = Clock::now();
-  while (Log().find("dropped") == std::string::npos && Since(t0) < 15)
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  test::WaitFor([&] { return Log().find("dropped") != std::string::npos; }, 15, std::chrono::milliseconds(20));
   EXPECT_NE(Log().find("window 3 was being built when rumi-back died, twice: dropped"), std::string::npos) << Log();
   EXPECT_FALSE(fs::exists(dir_ / "work" / "spool" / "3.rwin"));
-  t0 = Clock::now();
-  while (Stats()["windows_dropped"] != 1 && Since(t0) < 5) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  test::WaitFor([&] { return Stats()["windows_dropped"] == 1; }, 5, std::chrono::milliseconds(20));
   EXPECT_EQ(Stats()["windows_dropped"], 1);
 }
 
@@ -346,10 +339,8 @@ TEST_F(BackIpcTest, KilledBackRetriesItsWindowOnceThenDropsIt) {
 TEST_F(BackIpcTest, AManagerGoneForGoodEndsTheBack) {
   Start({"--config", Config(4, ", peer_timeout_s: 1")});
   const std::string segment = SegmentName(ipc_.instance, kBackSubmapChannel);
-  const auto t0 = Clock::now();
   RingStats rs;
-  while (!ReadRingStats(segment, &rs) && Since(t0) < 10) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  ASSERT_TRUE(ReadRingStats(segment, &rs)) << Log();
+  ASSERT_TRUE(test::WaitFor([&] { return ReadRingStats(segment, &rs); }, 10, std::chrono::milliseconds(10))) << Log();
   const pid_t manager = ::fork();
   if (manager == 0) {  // attaches as the consumer, then dies without a word
     SubmapReceiver rx(ipc_, SubmapSource::kBack);

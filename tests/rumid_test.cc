@@ -243,9 +243,7 @@ TEST_F(Daemon, ADeletedStateFolderIsMadeAndLockedAgain) {
   pid_ = Start({"--config", cfg}, {}, log);
   WaitRunning("gone");  // (the relock needs rumid's loop, not the children's readiness)
   fs::remove_all(State("gone"));
-  auto t0 = Clock::now();
-  while (Since(t0) < 10 && Slurp(log).find("locking it again") == std::string::npos)
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  test::WaitFor([&] { return Slurp(log).find("locking it again") != std::string::npos; }, 10, std::chrono::milliseconds(50));
   EXPECT_NE(Slurp(log).find("was deleted or replaced while rumid ran"), std::string::npos) << Slurp(log);
   EXPECT_TRUE(fs::exists(State("gone") / "rumid.lock"));
   const std::string log_b = (dir_ / "rumid_gone_b.log").string();
@@ -253,10 +251,7 @@ TEST_F(Daemon, ADeletedStateFolderIsMadeAndLockedAgain) {
   EXPECT_EQ(WaitExit(b, 20), 2);
   EXPECT_NE(Slurp(log_b).find("another rumid (pid " + std::to_string(pid_) + ") runs on"), std::string::npos)
       << Slurp(log_b);
-  t0 = Clock::now();
-  while (Since(t0) < 10 && !fs::exists(State("gone") / "status.json"))
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  EXPECT_TRUE(fs::exists(State("gone") / "status.json"));
+  EXPECT_TRUE(test::WaitFor([&] { return fs::exists(State("gone") / "status.json"); }, 10, std::chrono::milliseconds(50)));
   ::kill(pid_, SIGTERM);
   EXPECT_EQ(WaitExit(pid_, 20), 0) << Slurp(log);
   pid_ = -1;
@@ -300,17 +295,13 @@ TEST_F(Daemon, AFailedFinalSaveFailsRumid) {
   const std::string log = (dir_ / "rumid_save.log").string();
   pid_ = Start({"--config", cfg}, {}, log);
   WaitRunning("save");
-  auto t0 = Clock::now();
-  t0 = Clock::now();  // a save or two, then the map file cannot be replaced
-  while (Since(t0) < 30 && !fs::exists(State("save") / "map.rumi"))
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  // A save or two, then the map file cannot be replaced.
+  test::WaitFor([&] { return fs::exists(State("save") / "map.rumi"); }, 30, std::chrono::milliseconds(50));
   fs::remove(State("save") / "map.rumi");
   fs::create_directories(State("save") / "map.rumi" / "in_the_way");
   // The next save fails (the map is then unsaved at the stop, whatever comes).
   const fs::path manager_log = State("save") / "logs" / "rumi-manager.log";
-  t0 = Clock::now();
-  while (Since(t0) < 30 && Slurp(manager_log).find("[error]") == std::string::npos)
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  test::WaitFor([&] { return Slurp(manager_log).find("[error]") != std::string::npos; }, 30, std::chrono::milliseconds(50));
   ASSERT_NE(Slurp(manager_log).find("[error]"), std::string::npos) << Slurp(manager_log);
   ::kill(pid_, SIGTERM);
   EXPECT_EQ(WaitExit(pid_, 20), 1) << Slurp(log);
