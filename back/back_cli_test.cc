@@ -2,14 +2,15 @@
 // exit codes, config errors and the files written.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
 
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
-#include "common/test_require.h"
+
+#include "common/testing/process.h"
+#include "common/testing/require.h"
+#include "common/testing/temp_dir.h"
 
 namespace fs = std::filesystem;
 
@@ -18,11 +19,8 @@ namespace {
 class BackCliTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    const char* bin = std::getenv("RUMI_BIN_DIR");
-    exe_ = (fs::path(bin ? bin : RUMI_BINARY_DIR "/bin") / "rumi-back").string();
+    exe_ = rumi::test::BinPath("rumi-back");
     RUMI_REQUIRE(fs::exists(exe_), "build rumi-back first: " << exe_);
-    dir_ = fs::temp_directory_path() / ("rumi_back_cli_test_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
     fs::create_directories(dir_ / "win" / "img");
     std::ofstream idx(dir_ / "win" / "rgb.txt");
     idx << "# timestamp filename\n";
@@ -38,8 +36,6 @@ class BackCliTest : public ::testing::Test {
     std::ofstream(fake) << "#!/bin/sh\necho 'fake colmap failing' >&2\nexit 1\n";
     ::chmod(fake.c_str(), 0755);
   }
-  void TearDown() override { fs::remove_all(dir_); }
-
   std::string Config(const std::string& back) {
     const fs::path p = dir_ / "config.yaml";
     std::ofstream(p) << "camera: {width: 32, height: 24, fx: 30, fy: 30, cx: 15.5, cy: 11.5}\n"
@@ -47,18 +43,12 @@ class BackCliTest : public ::testing::Test {
                      << ", workspace_dir: " << (dir_ / "ws").string() << back << "}\n";
     return p.string();
   }
-  int Run(const std::string& args) {
-    const int rc = std::system((exe_ + " " + args + " > " + (dir_ / "out.log").string() + " 2>&1").c_str());
-    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-  }
-
-  std::string Log() const {
-    std::ifstream in(dir_ / "out.log");
-    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  }
+  int Run(const std::string& args) { return rumi::test::RunLogged(exe_ + " " + args, dir_ / "out.log"); }
+  std::string Log() const { return rumi::test::Slurp(dir_ / "out.log"); }
 
   std::string exe_;
-  fs::path dir_;
+  rumi::TempDir tmp_;
+  fs::path dir_ = tmp_.path();
 };
 
 TEST_F(BackCliTest, ColmapFailureIsReportedInResultJson) {

@@ -9,7 +9,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "common/test_require.h"
+#include "common/testing/require.h"
+#include "common/testing/temp_dir.h"
 #include "back/back_submap_builder.h"
 #include "back/window_dir.h"
 #include "common/geometry.h"
@@ -41,8 +42,8 @@ TEST(BackColmapRunTest, TumOfficeEightFrames) {
   BackOptions o;
   o.num_threads = 1;
   o.max_num_features = 1024;
-  o.workspace_dir = (std::filesystem::temp_directory_path() /
-                     ("rumi_back_colmap_run_test_" + std::to_string(::getpid()))).string();
+  const TempDir workspace;
+  o.workspace_dir = workspace.str();
   BackSubmapBuilder builder(o);
   const BackResult r = builder.Build(window);
   std::printf("colmap steps: extract %.2f s, match %.2f s, map %.2f s, total %.2f s\n",
@@ -58,7 +59,6 @@ TEST(BackColmapRunTest, TumOfficeEightFrames) {
   EXPECT_LT(r.stats[0].mean_reprojection_error_px, 1.5);
   EXPECT_GT(r.stats[0].num_points, 50);
   EXPECT_TRUE(std::filesystem::is_empty(o.workspace_dir));
-  std::filesystem::remove_all(o.workspace_dir);
 
   // Timestamps are exactly the window's.
   for (const Keyframe& kf : s.keyframes) {

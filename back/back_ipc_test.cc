@@ -13,11 +13,13 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "common/test_require.h"
-#include "back/canned_colmap_model.h"
-#include "common/timestamp.h"
+#include "back/testing/canned_colmap_model.h"
 #include "common/process/exit_codes.h"
 #include "common/process/process_info.h"
+#include "common/testing/process.h"
+#include "common/testing/require.h"
+#include "common/testing/temp_dir.h"
+#include "common/timestamp.h"
 #include "ipc/channels.h"
 
 namespace fs = std::filesystem;
@@ -26,20 +28,17 @@ namespace rumi {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double Since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+const auto& Since = test::SecondsSince;
 
 bool ProcessGone(pid_t pid) { return !ProcessRunning(pid); }
 
 class BackIpcTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    const char* bin = std::getenv("RUMI_BIN_DIR");
-    exe_ = (fs::path(bin ? bin : RUMI_BINARY_DIR "/bin") / "rumi-back").string();
+    exe_ = test::BinPath("rumi-back");
     RUMI_REQUIRE(fs::exists(exe_), "build rumi-back first: " << exe_);
     const std::string name = ::testing::UnitTest::GetInstance()->current_test_info()->name();
-    dir_ = fs::temp_directory_path() / ("rumi_back_ipc_test_" + std::to_string(::getpid()) + "_" + name);
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    tmp_.Create();
     ipc_.instance = "test_" + std::to_string(::getpid()) + "_" + name.substr(0, 8);
     ipc_.window_slot_bytes = 1 << 20;
     ipc_.submap_slot_bytes = 1 << 20;
@@ -51,7 +50,6 @@ class BackIpcTest : public ::testing::Test {
       ::waitpid(pid_, nullptr, 0);
     }
     Cleanup();
-    fs::remove_all(dir_);
   }
   void Cleanup() {
     for (const char* ch : {kWindowChannel, kBackSubmapChannel}) RemoveSegment(SegmentName(ipc_.instance, ch));
@@ -88,35 +86,16 @@ class BackIpcTest : public ::testing::Test {
     std::vector<std::string> args = {exe_, "--instance", ipc_.instance, "--work", (dir_ / "work").string(),
                                      "--wait-for-producer", "20", "--wait-for-consumer", "20"};
     args.insert(args.end(), extra.begin(), extra.end());
-    const std::string log = (dir_ / "back.log").string();
-    pid_ = ::fork();
+    pid_ = test::Start(args, (dir_ / "back.log").string());
     ASSERT_GE(pid_, 0);
-    if (pid_ == 0) {
-      std::vector<char*> argv;
-      for (auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-      argv.push_back(nullptr);
-      if (!std::freopen(log.c_str(), "w", stdout) || ::dup2(::fileno(stdout), 2) < 0) ::_exit(126);
-      ::execv(argv[0], argv.data());
-      ::_exit(127);
-    }
   }
-  // Exit code, or -1 (killed / still running after timeout_s, then SIGKILLed).
+  // Exit code, -2 when killed, -1 when still running after timeout_s.
   int Wait(double timeout_s) {
-    const auto t0 = Clock::now();
-    int st = 0;
-    while (Since(t0) < timeout_s) {
-      if (::waitpid(pid_, &st, WNOHANG) == pid_) {
-        pid_ = -1;
-        return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    return -1;
+    const int rc = test::WaitExit(pid_, timeout_s, false, std::chrono::milliseconds(10));
+    if (rc != -1) pid_ = -1;  // reaped
+    return rc;
   }
-  std::string Log() const {
-    std::ifstream in(dir_ / "back.log");
-    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  }
+  std::string Log() const { return test::Slurp(dir_ / "back.log"); }
   nlohmann::json Stats() const {
     std::ifstream in(dir_ / "work" / "back_stats.json");
     EXPECT_TRUE(in.good()) << Log();
@@ -124,7 +103,8 @@ class BackIpcTest : public ::testing::Test {
   }
 
   std::string exe_;
-  fs::path dir_;
+  TempDir tmp_;
+  fs::path dir_ = tmp_.path();
   IpcOptions ipc_;
   pid_t pid_ = -1;
 };
@@ -247,9 +227,8 @@ TEST_F(BackIpcTest, SigtermCancelsRunningColmapAndSaysSo) {
   const double secs = Since(t1);
   std::printf("rumi-back stopped %.3f s after SIGTERM\n", secs);
   EXPECT_LT(secs, 3.0) << "docs/eval.md: stop within 3 s";
-  const auto t2 = Clock::now();  // orphans are reaped by init: give it a moment
-  while ((!ProcessGone(sh) || !ProcessGone(sleeper)) && Since(t2) < 2)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  // Orphans are reaped by init: give it a moment.
+  test::WaitFor([&] { return ProcessGone(sh) && ProcessGone(sleeper); }, 2, std::chrono::milliseconds(10));
   EXPECT_TRUE(ProcessGone(sh)) << "fake colmap survived";
   EXPECT_TRUE(ProcessGone(sleeper)) << "fake colmap's child survived";
 
@@ -311,8 +290,7 @@ TEST_F(BackIpcTest, KilledBackRetriesItsWindowOnceThenDropsIt) {
   auto run_until_colmap = [&](int round) {
     fs::remove(dir_ / "sleep.pid");
     Start({"--config", config, "--daemon"});
-    const auto t0 = Clock::now();
-    while (!fs::exists(dir_ / "sleep.pid") && Since(t0) < 15) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    test::WaitFor([&] { return fs::exists(dir_ / "sleep.pid"); }, 15, std::chrono::milliseconds(10));
     ASSERT_TRUE(fs::exists(dir_ / "sleep.pid")) << "round " << round << "\n" << Log();
   };
   fs::remove(dir_ / "sleep.pid");
@@ -334,9 +312,7 @@ TEST_F(BackIpcTest, KilledBackRetriesItsWindowOnceThenDropsIt) {
   std::ifstream(dir_ / "sleep.pid") >> sleeper;
   ::kill(pid_, SIGKILL);  // mid-COLMAP
   Wait(5);
-  t0 = Clock::now();
-  while (!ProcessGone(sleeper) && Since(t0) < 5) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  EXPECT_TRUE(ProcessGone(sleeper)) << "COLMAP outlived the killed back";
+  EXPECT_TRUE(test::WaitFor([&] { return ProcessGone(sleeper); }, 5, std::chrono::milliseconds(10))) << "COLMAP outlived the killed back";
   int workspaces = 0;
   for (const auto& e : fs::directory_iterator(dir_ / "ws")) workspaces += e.is_directory();
   EXPECT_EQ(workspaces, 1);  // left by the killed back
@@ -351,13 +327,10 @@ TEST_F(BackIpcTest, KilledBackRetriesItsWindowOnceThenDropsIt) {
   Wait(5);
 
   Start({"--config", config, "--daemon"});
-  t0 = Clock::now();
-  while (Log().find("dropped") == std::string::npos && Since(t0) < 15)
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  test::WaitFor([&] { return Log().find("dropped") != std::string::npos; }, 15, std::chrono::milliseconds(20));
   EXPECT_NE(Log().find("window 3 was being built when rumi-back died, twice: dropped"), std::string::npos) << Log();
   EXPECT_FALSE(fs::exists(dir_ / "work" / "spool" / "3.rwin"));
-  t0 = Clock::now();
-  while (Stats()["windows_dropped"] != 1 && Since(t0) < 5) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  test::WaitFor([&] { return Stats()["windows_dropped"] == 1; }, 5, std::chrono::milliseconds(20));
   EXPECT_EQ(Stats()["windows_dropped"], 1);
 }
 
@@ -366,10 +339,8 @@ TEST_F(BackIpcTest, KilledBackRetriesItsWindowOnceThenDropsIt) {
 TEST_F(BackIpcTest, AManagerGoneForGoodEndsTheBack) {
   Start({"--config", Config(4, ", peer_timeout_s: 1")});
   const std::string segment = SegmentName(ipc_.instance, kBackSubmapChannel);
-  const auto t0 = Clock::now();
   RingStats rs;
-  while (!ReadRingStats(segment, &rs) && Since(t0) < 10) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  ASSERT_TRUE(ReadRingStats(segment, &rs)) << Log();
+  ASSERT_TRUE(test::WaitFor([&] { return ReadRingStats(segment, &rs); }, 10, std::chrono::milliseconds(10))) << Log();
   const pid_t manager = ::fork();
   if (manager == 0) {  // attaches as the consumer, then dies without a word
     SubmapReceiver rx(ipc_, SubmapSource::kBack);

@@ -10,6 +10,8 @@
 #include <thread>
 
 #include "common/process/exit_codes.h"
+#include "common/testing/process.h"
+#include "common/testing/temp_dir.h"
 
 namespace rumi {
 namespace {
@@ -19,10 +21,9 @@ TEST(BackRun, UnderRumidTheSourceEndedAndNoChannelLeftEndsTheBack) {
   // A back restarted after the front had closed and removed a drained
   // window channel: rumid's SIGUSR1 (finish) must end it, not leave it
   // waiting forever for a front that is done.
-  const fs::path dir = fs::temp_directory_path() / ("rumi_back_run_test_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const TempDir dir;
   BackRunOptions o;
-  o.work_dir = dir.string();
+  o.work_dir = dir.str();
   o.ipc.instance = "backfin_" + std::to_string(::getpid());
   o.spool = true;
   o.producer_death_ends = false;
@@ -34,19 +35,8 @@ TEST(BackRun, UnderRumidTheSourceEndedAndNoChannelLeftEndsTheBack) {
   std::thread back([&] { code = RunBack(o, &stop); });
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   finish = true;
-  const auto t0 = std::chrono::steady_clock::now();
-  std::thread guard([&] {  // a back that never ends is stopped, and fails below
-    while (!stop && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(30))
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    stop = true;
-  });
-  back.join();
-  const bool ended_by_itself = !stop;
-  stop = true;
-  guard.join();
-  EXPECT_TRUE(ended_by_itself);
+  EXPECT_TRUE(test::JoinWithin(&back, &stop, 30));  // a back that never ends is stopped, and fails
   EXPECT_EQ(code, kExitDone);
-  fs::remove_all(dir);
 }
 
 }  // namespace

@@ -1,6 +1,6 @@
 // BackSubmapBuilder against fake `colmap` executables (shell scripts written
 // here): failures, hangs, empty output and canned models, without COLMAP.
-#include "back/canned_colmap_model.h"
+#include "back/testing/canned_colmap_model.h"
 #include "back/back_submap_builder.h"
 #include "back/colmap_database.h"
 
@@ -17,6 +17,7 @@
 #include <sstream>
 
 #include "common/orb_extractor.h"
+#include "common/testing/temp_dir.h"
 
 namespace fs = std::filesystem;
 
@@ -26,11 +27,7 @@ namespace {
 class BackSubmapBuilderTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    root_ = fs::temp_directory_path() /
-            ("rumi_back_builder_test_" + std::to_string(::getpid()) + "_" +
-             ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(root_);
-    fs::create_directories(root_);
+    tmp_.Create();
     options_.workspace_dir = (root_ / "ws").string();
     options_.step_timeout_s = 20;
     window_.id = 12;
@@ -49,7 +46,6 @@ class BackSubmapBuilderTest : public ::testing::Test {
       window_.frames.push_back(f);
     }
   }
-  void TearDown() override { fs::remove_all(root_); }
 
   // A fake colmap: logs its arguments, then runs `body` with $1 = command.
   std::string FakeColmap(const std::string& body) {
@@ -125,7 +121,8 @@ class BackSubmapBuilderTest : public ::testing::Test {
     return !fs::exists(options_.workspace_dir) || fs::is_empty(options_.workspace_dir);
   }
 
-  fs::path root_;
+  TempDir tmp_;
+  fs::path root_ = tmp_.path();
   BackOptions options_;
   ImageWindow window_;
 };

@@ -1,13 +1,13 @@
 #include "back/colmap_database.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
 #include <map>
 
-#include "back/canned_colmap_model.h"
+#include "back/testing/canned_colmap_model.h"
+#include "common/testing/temp_dir.h"
 
 namespace rumi {
 namespace {
@@ -16,13 +16,9 @@ namespace fs = std::filesystem;
 
 class ColmapDatabaseTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("rumi_colmap_database_test_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  fs::path dir_;
+  void SetUp() override { tmp_.Create(); }
+  TempDir tmp_;
+  fs::path dir_ = tmp_.path();
 };
 
 TEST_F(ColmapDatabaseTest, KeypointCountsByImageName) {

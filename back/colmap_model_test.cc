@@ -10,6 +10,7 @@
 #include <limits>
 
 #include "back/model_to_submap.h"
+#include "common/testing/temp_dir.h"
 
 namespace rumi {
 namespace {
@@ -58,14 +59,7 @@ const uint64_t kNone = std::numeric_limits<uint64_t>::max();
 
 class ColmapModelTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("rumi_colmap_model_test_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
-            "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::remove_all(dir_);
-    std::filesystem::create_directories(dir_);
-  }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
+  void SetUp() override { tmp_.Create(); }
 
   // Image ids 5 and 9; points 100, 200, 300. Image 5 sees all three (2D
   // indices 1, 2, 3; index 0 is an unmatched feature), image 9 sees 100 and 300.
@@ -120,7 +114,8 @@ class ColmapModelTest : public ::testing::Test {
   }
 
   Scene s_;
-  std::filesystem::path dir_;
+  TempDir tmp_;
+  std::filesystem::path dir_ = tmp_.path();
 };
 
 TEST_F(ColmapModelTest, ReadsHandWrittenModel) {

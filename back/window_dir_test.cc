@@ -1,11 +1,11 @@
 #include "back/window_dir.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
+#include "common/testing/temp_dir.h"
 
 namespace rumi {
 namespace {
@@ -13,8 +13,7 @@ namespace {
 class WindowDirTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() / ("rumi_window_dir_test_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(dir_);
+    tmp_.Create();
     for (int i = 0; i < 3; ++i)
       ASSERT_TRUE(cv::imwrite((dir_ / ("f" + std::to_string(i) + ".png")).string(), cv::Mat(6, 8, CV_8U, cv::Scalar(40 * i))));
     cam_.width = 8;
@@ -23,10 +22,10 @@ class WindowDirTest : public ::testing::Test {
     cam_.cx = 4;
     cam_.cy = 3;
   }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
   void WriteIndex(const std::string& text) { std::ofstream(dir_ / "rgb.txt") << text; }
 
-  std::filesystem::path dir_;
+  TempDir tmp_;
+  std::filesystem::path dir_ = tmp_.path();
   PinholeCameraOptions cam_;
 };
 

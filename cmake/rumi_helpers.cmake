@@ -14,7 +14,7 @@ endfunction()
 # rumi_folder_library(NAME DEPS... [TEST_DEPS...] [EXCLUDE file.cc...])
 # Builds every *.cc of the current folder that is not a test, benchmark, *_main.cc
 # or excluded into library NAME, and registers each *_test.cc as a ctest test
-# linked against it.
+# linked against it and the test support (common/testing).
 function(rumi_folder_library name)
   cmake_parse_arguments(ARG "" "" "DEPS;TEST_DEPS;EXCLUDE" ${ARGN})
   file(GLOB _all CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.cc)
@@ -47,7 +47,7 @@ function(rumi_folder_library name)
   if(RUMI_BUILD_TESTS)
     foreach(t ${_tests})
       get_filename_component(_n ${t} NAME_WE)
-      rumi_add_test(${_n} SOURCES ${t} DEPS ${name} ${ARG_TEST_DEPS})
+      rumi_add_test(${_n} SOURCES ${t} DEPS ${name} ${ARG_TEST_DEPS} rumi_testing)
     endforeach()
   endif()
   if(RUMI_BUILD_BENCHMARKS)

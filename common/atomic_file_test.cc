@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "common/test_temp_dir.h"
+#include "common/testing/temp_dir.h"
 
 namespace rumi {
 namespace {

@@ -8,9 +8,9 @@
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <random>
-#include <unistd.h>
 
-#include "common/board_renderer.h"
+#include "common/testing/board_renderer.h"
+#include "common/testing/temp_dir.h"
 #include "common/camera_config.h"
 #include "common/config.h"
 
@@ -174,9 +174,8 @@ TEST(Calibration, RefusesBoardsFacingTheCamera) {
 }
 
 TEST(Calibration, FolderWithoutBoardOrReadableImages) {
-  const fs::path dir = fs::temp_directory_path() / ("rumi_calibration_test_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const TempDir tmp;
+  const fs::path dir = tmp.Create();
   EXPECT_THROW(
       {
         try {
@@ -209,7 +208,6 @@ TEST(Calibration, FolderWithoutBoardOrReadableImages) {
       << r.why;
   EXPECT_NE(r.why.find("inner corners: 9x6 for a board of 10x7 squares"), std::string::npos) << r.why;
   EXPECT_EQ(r.views[0].rejected, "unreadable");
-  fs::remove_all(dir);
 }
 
 TEST(Calibration, PicksStillNewBoardsFromAStream) {

@@ -1,6 +1,5 @@
 // Dataset readers on small generated folders: layouts, errors, skipping.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -9,6 +8,7 @@
 
 #include "common/dataset.h"
 #include "common/dataset_util.h"
+#include "common/testing/temp_dir.h"
 #include "common/trajectory.h"
 
 namespace rumi {
@@ -16,24 +16,6 @@ namespace {
 
 namespace fs = std::filesystem;
 const std::string kData = RUMI_SHARED_DATA_DIR;
-
-class TempDir {
- public:
-  explicit TempDir(const std::string& name)
-      : path_((fs::temp_directory_path() / ("rumi_dataset_test_" + std::to_string(::getpid()) + "_" + name)).string()) {
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const std::string& path() const { return path_; }
-  std::string operator/(const std::string& rel) const { return path_ + "/" + rel; }
-
- private:
-  std::string path_;
-};
 
 void WriteText(const std::string& path, const std::string& text) {
   fs::create_directories(fs::path(path).parent_path());
@@ -72,7 +54,7 @@ std::string ErrorOf(const DatasetOptions& o) {
 DatasetOptions FolderOptions(const TempDir& d) {
   DatasetOptions o;
   o.kind = DatasetKind::kFolder;
-  o.path = d.path();
+  o.path = d.str();
   return o;
 }
 
@@ -103,7 +85,8 @@ TEST(DatasetOptions, KindAndCheck) {
 }
 
 TEST(DatasetFolder, ReadsFramesInOrderWithCalibTxt) {
-  TempDir d("folder_ok");
+  const TempDir d;
+  d.Create();
   MakeFolder(d, 5);
   WriteText(d / "groundtruth.txt",
             "# t tx ty tz qx qy qz qw\n"
@@ -135,7 +118,8 @@ TEST(DatasetFolder, ReadsFramesInOrderWithCalibTxt) {
 }
 
 TEST(DatasetFolder, CorruptAndWrongSizeImagesAreSkipped) {
-  TempDir d("folder_corrupt");
+  const TempDir d;
+  d.Create();
   MakeFolder(d, 5);
   WriteText(d / "images/1.png", "\x89PNG\r\n\x1a\n this is not a png");
   WriteImage(d / "images/3.png", 3, 32, 24);  // wrong size
@@ -151,7 +135,8 @@ TEST(DatasetFolder, CorruptAndWrongSizeImagesAreSkipped) {
 }
 
 TEST(DatasetFolder, DuplicateTimestampRejectedWithLine) {
-  TempDir d("folder_dup");
+  const TempDir d;
+  d.Create();
   MakeFolder(d, 3);
   WriteText(d / "rgb.txt", "# header\n0.1 images/0.png\n0.15 images/1.png\n0.150000 images/2.png\n");
   const std::string e = ErrorOf(FolderOptions(d));
@@ -160,7 +145,8 @@ TEST(DatasetFolder, DuplicateTimestampRejectedWithLine) {
 }
 
 TEST(DatasetFolder, UnsortedTimestampRejectedWithLine) {
-  TempDir d("folder_unsorted");
+  const TempDir d;
+  d.Create();
   MakeFolder(d, 3);
   WriteText(d / "rgb.txt", "0.1 images/0.png\n\n0.3 images/1.png\n0.2 images/2.png\n");
   const std::string e = ErrorOf(FolderOptions(d));
@@ -169,7 +155,8 @@ TEST(DatasetFolder, UnsortedTimestampRejectedWithLine) {
 }
 
 TEST(DatasetFolder, MalformedLinesRejectedWithLine) {
-  TempDir d("folder_malformed");
+  const TempDir d;
+  d.Create();
   MakeFolder(d, 2);
   WriteText(d / "rgb.txt", "0.1 images/0.png\n0.2x images/1.png\n");
   std::string e = ErrorOf(FolderOptions(d));
@@ -189,7 +176,8 @@ TEST(DatasetFolder, MalformedLinesRejectedWithLine) {
 }
 
 TEST(DatasetFolder, MissingIndexOrCameraNamed) {
-  TempDir d("folder_missing");
+  const TempDir d;
+  d.Create();
   MakeFolder(d, 2, /*calib=*/false);
   std::string e = ErrorOf(FolderOptions(d));
   EXPECT_NE(e.find("calib.txt"), std::string::npos) << e;
@@ -200,7 +188,8 @@ TEST(DatasetFolder, MissingIndexOrCameraNamed) {
 }
 
 TEST(DatasetFolder, ConfigCameraOverridesCalib) {
-  TempDir d("folder_config");
+  const TempDir d;
+  d.Create();
   MakeFolder(d, 2);
   WriteText(d / "cam.yaml", "camera:\n  fx: 70\n  fy: 71\n  cx: 30\n  cy: 20\n  k1: -0.1\n");
   DatasetOptions o = FolderOptions(d);
@@ -230,7 +219,8 @@ TEST(DatasetFolder, ConfigCameraOverridesCalib) {
 }
 
 TEST(DatasetUtil, CalibTxtFormats) {
-  TempDir d("calib");
+  const TempDir d;
+  d.Create();
   PinholeCameraOptions o;
   WriteText(d / "c9.txt", "# fx fy cx cy k1 k2 p1 p2 k3\n1 2 3 4 0.1 0.2 0.3 0.4 0.5\n");
   ReadCalibTxt(d / "c9.txt", &o);
@@ -293,11 +283,12 @@ TEST(DatasetTum, CameraFromFolderNameOrConfig) {
   EXPECT_EQ(TumCameraOptions(2).fx, 520.908620);
   EXPECT_THROW(TumCameraOptions(4), std::invalid_argument);
 
-  TempDir d("office");
+  const TempDir d;
+  d.Create();
   MakeFolder(d, 2);
   DatasetOptions o;
   o.kind = DatasetKind::kTum;
-  o.path = d.path();
+  o.path = d.str();
   const std::string e = ErrorOf(o);
   EXPECT_NE(e.find("freiburg"), std::string::npos) << e;
   WriteText(d / "cam.yaml", "camera: {fx: 517.306408, fy: 516.469215, cx: 318.643040, cy: 255.313989}\n");
@@ -312,7 +303,8 @@ TEST(DatasetTum, CameraFromFolderNameOrConfig) {
 }
 
 TEST(DatasetIcl, FakeFolderWithGtFreiburg) {
-  TempDir d("icl");
+  const TempDir d;
+  d.Create();
   std::string assoc;
   for (int i = 0; i < 5; ++i) {
     WriteImage(d / ("rgb/" + std::to_string(i) + ".png"), i, 640, 480);
@@ -329,7 +321,7 @@ TEST(DatasetIcl, FakeFolderWithGtFreiburg) {
             "4 0.4 0 -2.25 0 0 0 1\n");
   DatasetOptions o;
   o.kind = DatasetKind::kIcl;
-  o.path = d.path();
+  o.path = d.str();
   auto src = OpenDataset(o);
   EXPECT_EQ(src->camera().fx(), 481.2);
   EXPECT_EQ(src->camera().fy(), -480.0);
@@ -362,7 +354,9 @@ TEST(DatasetIcl, FakeFolderWithGtFreiburg) {
 }
 
 TEST(DatasetKitti, NativeLayout) {
-  TempDir d("kitti_native/sequences/07");
+  const TempDir root;  // kitti_native/sequences/07 and kitti_native/poses/07.txt in it
+  const fs::path d = root.path() / "kitti_native/sequences/07";
+  fs::create_directories(d);
   std::string times, poses;
   for (int i = 0; i < 4; ++i) {
     char name[32];
@@ -379,7 +373,7 @@ TEST(DatasetKitti, NativeLayout) {
             "P1: 7.070912e+02 0 6.018873e+02 -3.798145e+02 0 7.070912e+02 1.831104e+02 0 0 0 1 0\n");
   DatasetOptions o;
   o.kind = DatasetKind::kKitti;
-  o.path = d.path();
+  o.path = d.string();
   {
     auto src = OpenDataset(o);  // no poses yet
     EXPECT_TRUE(src->ground_truth().empty());
@@ -388,7 +382,7 @@ TEST(DatasetKitti, NativeLayout) {
     EXPECT_EQ(src->camera().width(), 1226);
   }
   // Official place of the poses: <root>/poses/<seq>.txt beside sequences/.
-  WriteText(d.path() + "/../../poses/07.txt", poses);
+  WriteText(d.string() + "/../../poses/07.txt", poses);
   auto src = OpenDataset(o);
   ASSERT_EQ(src->size(), 4u);
   ASSERT_EQ(src->ground_truth().size(), 4u);
@@ -406,14 +400,14 @@ TEST(DatasetKitti, NativeLayout) {
   EXPECT_NE(ErrorOf(o).find("poses.txt"), std::string::npos) << ErrorOf(o);
   fs::remove(d / "times.txt");
   EXPECT_NE(ErrorOf(o).find("times.txt"), std::string::npos) << ErrorOf(o);
-  fs::remove_all(fs::path(d.path() + "/../..").lexically_normal());
 }
 
 // Native EuRoC ground truth (body frame, csv with w x y z quaternions) goes
 // through T_BS to the camera frame: compare with shared/data's camera file.
 TEST(DatasetEuroc, NativeBodyGroundTruthCsv) {
   const std::string src_dir = kData + "/euroc_v101_micro";
-  TempDir d("euroc");
+  const TempDir d;
+  d.Create();
   fs::create_directories(d / "mav0/cam0/data");
   fs::copy_file(src_dir + "/mav0/cam0/sensor.yaml", d / "mav0/cam0/sensor.yaml");
   std::ifstream csv_in(src_dir + "/mav0/cam0/data.csv");
@@ -439,7 +433,7 @@ TEST(DatasetEuroc, NativeBodyGroundTruthCsv) {
     gt += buf;
   }
   WriteText(d / "mav0/state_groundtruth_estimate0/data.csv", gt);
-  for (const std::string& path : {d.path(), d / "mav0"}) {  // sequence folder or mav0 itself
+  for (const std::string& path : {d.str(), d / "mav0"}) {  // sequence folder or mav0 itself
     DatasetOptions o;
     o.kind = DatasetKind::kEuroc;
     o.path = path;
@@ -460,7 +454,7 @@ TEST(DatasetEuroc, NativeBodyGroundTruthCsv) {
   WriteText(d / "mav0/cam0/sensor.yaml", "%YAML:1.0\nintrinsics: [1, 2, 3]\n");
   DatasetOptions o;
   o.kind = DatasetKind::kEuroc;
-  o.path = d.path();
+  o.path = d.str();
   EXPECT_NE(ErrorOf(o).find("sensor.yaml"), std::string::npos) << ErrorOf(o);
   fs::remove(d / "mav0/cam0/sensor.yaml");
   EXPECT_NE(ErrorOf(o).find("sensor.yaml"), std::string::npos) << ErrorOf(o);

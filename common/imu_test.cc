@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "common/imu_synth.h"
+#include "common/testing/temp_dir.h"
 
 namespace rumi {
 namespace {
@@ -74,8 +75,8 @@ TEST(GyroIntegrator, FollowsASynthesisedTrajectoryWithAVaryingAxis) {
 }
 
 TEST(ImuCsv, RoundTripsAndNamesTheBadLine) {
-  const auto dir = std::filesystem::temp_directory_path() / ("rumi_imu_test_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const TempDir tmp;
+  const std::filesystem::path dir = tmp.Create();
   std::vector<ImuSample> v(3);
   for (int i = 0; i < 3; ++i) {
     v[i].t = 1'000'000'000'000 + i * 5'000'000;

@@ -1,13 +1,13 @@
 #include "common/loss_to_merge.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "common/eval_table.h"
+#include "common/testing/temp_dir.h"
 
 namespace rumi {
 namespace {
@@ -81,9 +81,8 @@ TEST(LossToMerge, NoWallTimesNoFigures) {
 
 class LossToMergeFiles : public ::testing::Test {
  protected:
-  fs::path dir_ = fs::temp_directory_path() / ("rumi_loss_to_merge_test_" + std::to_string(::getpid()));
-  void SetUp() override { fs::create_directories(dir_); }
-  void TearDown() override { fs::remove_all(dir_); }
+  TempDir tmp_;
+  fs::path dir_ = tmp_.Create();
   std::string Write(const std::string& name, const std::string& text) {
     std::ofstream(dir_ / name) << text;
     return (dir_ / name).string();

@@ -7,11 +7,10 @@
 #include <fstream>
 #include <sstream>
 
-#include <unistd.h>
-
 #include <nlohmann/json.hpp>
 
 #include "common/eval_table.h"
+#include "common/testing/temp_dir.h"
 
 namespace rumi {
 namespace {
@@ -278,9 +277,8 @@ TEST(RunMetrics, BadRunFilesNameFileAndLine) {
 }
 
 TEST(RunMetrics, ReadsStatsFiles) {
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("rumi_run_metrics_test_" + std::to_string(getpid()));
-  std::filesystem::create_directories(dir);
+  const TempDir tmp;
+  const std::filesystem::path dir = tmp.Create();
   const std::string back = (dir / "back_stats.json").string();
   const std::string manager = (dir / "manager_stats.json").string();
   const std::string broken = (dir / "broken.json").string();
@@ -305,7 +303,6 @@ TEST(RunMetrics, ReadsStatsFiles) {
     EXPECT_NE(std::string(e.what()).find("'windows'"), std::string::npos) << e.what();
   }
   EXPECT_THROW(ReadManagerStats(back, &c), std::runtime_error);  // keys missing
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

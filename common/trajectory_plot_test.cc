@@ -1,11 +1,12 @@
 #include "common/trajectory_plot.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <filesystem>
 
 #include <opencv2/imgcodecs.hpp>
+
+#include "common/testing/temp_dir.h"
 
 namespace rumi {
 namespace {
@@ -124,9 +125,8 @@ TEST(TrajectoryPlot, GroundTruthColourOnlyWithGroundTruth) {
 }
 
 TEST(TrajectoryPlot, WritesPngOfTheRightSize) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                                    ("rumi_plot_test_" + std::to_string(getpid()));
-  std::filesystem::create_directories(dir);
+  const TempDir tmp;
+  const std::filesystem::path dir = tmp.Create();
   TopViewOptions o;
   o.width = 640;
   o.height = 480;
@@ -138,7 +138,6 @@ TEST(TrajectoryPlot, WritesPngOfTheRightSize) {
   EXPECT_EQ(back.rows, 480);
   EXPECT_GT(FindColour(back, kPlotGroundTruthBgr, 0, back.rows).count, 300);  // PNG is lossless
   EXPECT_THROW(WritePng((dir / "missing" / "x.png").string(), back), std::runtime_error);
-  std::filesystem::remove_all(dir);
 }
 
 TEST(TrajectoryPlot, EmptyInputsDoNotCrash) {

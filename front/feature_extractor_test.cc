@@ -1,6 +1,6 @@
 #include "front/feature_extractor.h"
 
-#include "front/front_test_util.h"
+#include "front/testing/front_test_util.h"
 
 #include <gtest/gtest.h>
 

@@ -1,5 +1,6 @@
 #include "front/frame_stream.h"
-#include "front/front_test_util.h"
+#include "common/testing/temp_dir.h"
+#include "front/testing/front_test_util.h"
 
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
@@ -22,13 +23,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
-
-fs::path TempDir(const std::string& tag) {
-  const fs::path p = fs::temp_directory_path() / ("rumi_frame_stream_" + tag + "_" + std::to_string(::getpid()));
-  fs::remove_all(p);
-  fs::create_directories(p);
-  return p;
-}
 
 cv::Mat Pattern(int k, int w = 320, int h = 240) {
   cv::Mat img(h, w, CV_8UC3, cv::Scalar(40, 40, 40));
@@ -138,7 +132,8 @@ SourceOptions Capture(const std::string& path) {
 }
 
 TEST(FrameStream, VideoFilePlaysAtItsRateWithGroundStationTimestamps) {
-  const fs::path dir = TempDir("video");
+  const TempDir tmp;
+  const fs::path dir = tmp.Create();
   const std::string file = (dir / "walk.avi").string();
   {
     cv::VideoWriter w(file, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 20.0, cv::Size(320, 240));
@@ -171,11 +166,11 @@ TEST(FrameStream, VideoFilePlaysAtItsRateWithGroundStationTimestamps) {
   // Capture time on the ground station's wall clock.
   const double wall = std::chrono::duration<double>(wall0.time_since_epoch()).count();
   EXPECT_NEAR(NsToSeconds(t.front()), wall, 5.0);
-  fs::remove_all(dir);
 }
 
 TEST(FrameStream, WrongFrameSizeIsRefusedNamingBothSizes) {
-  const fs::path dir = TempDir("size");
+  const TempDir tmp;
+  const fs::path dir = tmp.Create();
   const std::string file = (dir / "vga.avi").string();
   {
     cv::VideoWriter w(file, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 20.0, cv::Size(640, 480));
@@ -198,7 +193,6 @@ TEST(FrameStream, WrongFrameSizeIsRefusedNamingBothSizes) {
   o.camera = nullptr;
   o.source.path = file;
   EXPECT_THROW(OpenFrameStream(o), StreamError);  // a capture needs its calibration
-  fs::remove_all(dir);
 }
 
 // The ESP32-CAM's HTTP MJPEG stream through OpenCV, with a Wi-Fi drop: the

@@ -6,10 +6,10 @@
 
 #include <Eigen/Geometry>
 
-#include "common/test_require.h"
+#include "common/testing/require.h"
 #include "common/imu_synth.h"
 #include "front/front.h"
-#include "front/front_test_util.h"
+#include "front/testing/front_test_util.h"
 
 namespace rumi {
 namespace {

@@ -7,8 +7,8 @@
 
 #include "front/front.h"
 #include "front/front_publisher.h"
-#include "front/front_test_util.h"
-#include "common/test_require.h"
+#include "front/testing/front_test_util.h"
+#include "common/testing/require.h"
 
 namespace rumi {
 namespace {

@@ -12,7 +12,7 @@
 #include <set>
 #include <thread>
 
-#include "common/test_require.h"
+#include "common/testing/require.h"
 #include "common/process/exit_codes.h"
 #include "common/run_metrics.h"
 #include "common/trajectory.h"

@@ -7,8 +7,8 @@
 #include <set>
 
 #include "common/synth/synthetic_sequence.h"
-#include "front/front_test_util.h"
-#include "common/test_require.h"
+#include "front/testing/front_test_util.h"
+#include "common/testing/require.h"
 
 namespace rumi {
 namespace {

@@ -6,7 +6,7 @@
 
 #include "common/orb_extractor.h"
 #include "manager/post_culling.h"
-#include "manager/synthetic_submaps.h"
+#include "manager/testing/synthetic_submaps.h"
 
 namespace rumi {
 namespace {

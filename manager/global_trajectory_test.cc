@@ -7,7 +7,7 @@
 #include <fstream>
 
 #include "manager/merge.h"
-#include "manager/test_scenario.h"
+#include "manager/testing/test_scenario.h"
 
 namespace rumi {
 namespace {
@@ -54,8 +54,9 @@ TEST(GlobalTrajectory, WritesTum) {
   GlobalMap map;
   map.AddSubmap(s.front_a.submap);
   const auto traj = ComputeGlobalTrajectory(map);
-  const std::string path =
-      (std::filesystem::temp_directory_path() / ("rumi_traj_" + std::to_string(::getpid()) + ".txt")).string();
+  const TempDir dir;
+  dir.Create();
+  const std::string path = dir / "traj.txt";
   WriteTumTrajectory(path, ToTrajectory(traj));
   std::ifstream in(path);
   std::string line;
@@ -74,7 +75,6 @@ TEST(GlobalTrajectory, WritesTum) {
   EXPECT_NEAR(v[7], traj[0].T_wc.rotation().w(), 1e-6);
   while (std::getline(in, line)) ++n;
   EXPECT_EQ(n, int(traj.size()));
-  std::remove(path.c_str());
   try {
     WriteTumTrajectory("/nonexistent-dir/x.txt", ToTrajectory(traj));
     ADD_FAILURE() << "wrote into a missing folder";

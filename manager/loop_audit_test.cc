@@ -7,7 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "manager/sim3_json.h"
-#include "manager/test_scenario.h"
+#include "manager/testing/test_scenario.h"
 
 namespace rumi {
 namespace {

@@ -13,7 +13,7 @@
 #include <memory>
 
 #include "manager/loop_closure.h"
-#include "manager/synthetic_walk.h"
+#include "manager/testing/synthetic_walk.h"
 
 namespace rumi {
 namespace {

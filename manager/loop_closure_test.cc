@@ -11,7 +11,7 @@
 
 #include "common/geometry.h"
 #include "manager/global_map.h"
-#include "manager/synthetic_walk.h"
+#include "manager/testing/synthetic_walk.h"
 
 namespace rumi {
 namespace {

@@ -7,7 +7,8 @@
 #include <chrono>
 #include <thread>
 
-#include "manager/test_scenario.h"
+#include "common/testing/process.h"
+#include "manager/testing/test_scenario.h"
 
 namespace rumi {
 namespace {
@@ -124,17 +125,7 @@ TEST(ManagerRun, UnderRumidTheSourceEndedAndNoChannelLeftEndsTheLoop) {
   std::thread loop([&] { result = RunManagerLoop(run, &svc, &stop); });
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   finish = true;
-  const auto t0 = std::chrono::steady_clock::now();
-  std::thread guard([&] {  // a loop that never ends is stopped, and fails below
-    while (!stop && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(30))
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    stop = true;
-  });
-  loop.join();
-  const bool ended_by_itself = !stop;
-  stop = true;
-  guard.join();
-  EXPECT_TRUE(ended_by_itself);
+  EXPECT_TRUE(test::JoinWithin(&loop, &stop, 30));  // a loop that never ends is stopped, and fails
   EXPECT_EQ(result, ManagerExit::kProducersDone);
 }
 

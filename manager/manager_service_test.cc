@@ -13,8 +13,8 @@
 
 #include "common/timestamp.h"
 #include "manager/map_file.h"
-#include "manager/synthetic_walk.h"
-#include "manager/test_scenario.h"
+#include "manager/testing/synthetic_walk.h"
+#include "manager/testing/test_scenario.h"
 
 namespace rumi {
 namespace {

@@ -1,7 +1,6 @@
 #include "manager/map_file.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cstring>
 #include <filesystem>
@@ -9,7 +8,7 @@
 
 #include "ipc/byte_io.h"
 #include "manager/merge.h"
-#include "manager/test_scenario.h"
+#include "manager/testing/test_scenario.h"
 
 namespace rumi {
 namespace {
@@ -19,8 +18,7 @@ namespace fs = std::filesystem;
 class MapFileTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("rumi_map_file_" + std::to_string(::getpid()));
-    fs::create_directories(dir_);
+    tmp_.Create();
     path_ = (dir_ / "global.map").string();
     s_ = testing::MakeScenario(3, 1.0, 600);
     a_ = map_.AddSubmap(s_.front_a.submap);
@@ -28,7 +26,6 @@ class MapFileTest : public ::testing::Test {
     k_ = map_.AddSubmap(s_.back.submap);
     MergeAll(&map_, ManagerOptions());
   }
-  void TearDown() override { fs::remove_all(dir_); }
   std::vector<char> ReadAll() {
     std::ifstream in(path_, std::ios::binary);
     return std::vector<char>((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -37,7 +34,8 @@ class MapFileTest : public ::testing::Test {
     std::ofstream out(path_, std::ios::binary | std::ios::trunc);
     out.write(d.data(), std::streamsize(d.size()));
   }
-  fs::path dir_;
+  TempDir tmp_;
+  fs::path dir_ = tmp_.path();
   std::string path_;
   testing::Scenario s_;
   GlobalMap map_;

@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "manager/test_scenario.h"
+#include "manager/testing/test_scenario.h"
 
 namespace rumi {
 namespace {
@@ -130,8 +130,8 @@ TEST(MergeAudit, MissingSubmapsAndTruthAreNotedNotThrown) {
 }
 
 TEST(MergeAudit, ReadsTheManagersMergeReports) {
-  const auto dir = std::filesystem::temp_directory_path() / ("rumi_merge_audit_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const TempDir tmp;
+  const std::filesystem::path dir = tmp.Create();
   const auto path = (dir / "manager_stats.json").string();
   std::ofstream(path) << R"j({"merge_reports": [
     {"kind": "merge", "front": "front#1", "back": "back#1", "merged": true, "reason": "", "rejected_by": "",
@@ -159,7 +159,6 @@ TEST(MergeAudit, ReadsTheManagersMergeReports) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
   }
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -14,7 +14,7 @@
 #include "manager/odometry_merge.h"
 #include "manager/place_merge.h"
 #include "manager/post_culling.h"
-#include "manager/synthetic_submaps.h"
+#include "manager/testing/synthetic_submaps.h"
 
 namespace rumi {
 namespace {

@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "manager/place_merge.h"
-#include "manager/test_scenario.h"
+#include "manager/testing/test_scenario.h"
 
 namespace rumi {
 namespace {

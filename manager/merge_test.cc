@@ -4,7 +4,7 @@
 
 #include "common/logging.h"
 #include "manager/global_trajectory.h"
-#include "manager/test_scenario.h"
+#include "manager/testing/test_scenario.h"
 
 namespace rumi {
 namespace {

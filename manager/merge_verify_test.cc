@@ -4,7 +4,7 @@
 
 #include "manager/merge.h"
 #include "manager/sim3_alignment.h"
-#include "manager/test_scenario.h"
+#include "manager/testing/test_scenario.h"
 
 namespace rumi {
 namespace {

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <random>
 
-#include "manager/synthetic_submaps.h"
+#include "manager/testing/synthetic_submaps.h"
 
 namespace rumi {
 namespace {

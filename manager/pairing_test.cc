@@ -2,7 +2,7 @@
 
 #include <gtest/gtest.h>
 
-#include "manager/test_scenario.h"
+#include "manager/testing/test_scenario.h"
 
 namespace rumi {
 namespace {

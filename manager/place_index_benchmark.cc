@@ -9,7 +9,7 @@
 #include <memory>
 
 #include "manager/place_index.h"
-#include "manager/synthetic_places.h"
+#include "manager/testing/synthetic_places.h"
 
 namespace rumi {
 namespace {

@@ -4,7 +4,7 @@
 
 #include <random>
 
-#include "manager/synthetic_places.h"
+#include "manager/testing/synthetic_places.h"
 
 namespace rumi {
 namespace {

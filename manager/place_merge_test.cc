@@ -5,7 +5,7 @@
 #include <random>
 #include <set>
 
-#include "manager/synthetic_submaps.h"
+#include "manager/testing/synthetic_submaps.h"
 
 namespace rumi {
 namespace {

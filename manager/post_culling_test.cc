@@ -5,7 +5,7 @@
 #include "manager/global_trajectory.h"
 #include "manager/merge.h"
 #include "manager/submap_index.h"
-#include "manager/test_scenario.h"
+#include "manager/testing/test_scenario.h"
 
 namespace rumi {
 namespace {

@@ -7,7 +7,7 @@
 
 #include "manager/post_culling.h"
 #include "manager/submap_index.h"
-#include "manager/synthetic_submaps.h"
+#include "manager/testing/synthetic_submaps.h"
 
 namespace rumi {
 namespace {

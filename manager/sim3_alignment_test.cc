@@ -4,7 +4,7 @@
 
 #include <random>
 
-#include "manager/test_scenario.h"
+#include "manager/testing/test_scenario.h"
 
 namespace rumi {
 namespace {

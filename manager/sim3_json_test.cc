@@ -2,7 +2,7 @@
 
 #include <gtest/gtest.h>
 
-#include "manager/synthetic_submaps.h"
+#include "manager/testing/synthetic_submaps.h"
 
 namespace rumi {
 namespace {

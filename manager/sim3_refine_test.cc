@@ -5,7 +5,7 @@
 #include <random>
 #include <unordered_map>
 
-#include "manager/test_scenario.h"
+#include "manager/testing/test_scenario.h"
 
 namespace rumi {
 namespace {

@@ -11,10 +11,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <thread>
 
-#include "common/board_renderer.h"
-#include "common/process/subprocess.h"
+#include "common/testing/board_renderer.h"
 #include "apps/config/rumi_config.h"
 #include "ipc/link/robot_sim.h"
+#include "common/testing/temp_dir.h"
 #include "tests/rumi_cli_util.h"
 
 namespace rumi {
@@ -38,9 +38,7 @@ int FreeUdpPort() {
 class CalibrateLink : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("rumi_calibrate_link_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    tmp_.Create();
     std::string why;
     ASSERT_TRUE(GenerateLinkKey(&key_, &why) && WriteLinkKey((dir_ / "robot.key").string(), key_, false, &why)) << why;
   }
@@ -49,21 +47,15 @@ class CalibrateLink : public ::testing::Test {
       ::kill(pid_, SIGKILL);
       ::waitpid(pid_, nullptr, 0);
     }
-    fs::remove_all(dir_);
   }
   // Starts `rumi calibrate --link` on a free port; returns the port.
   int Start(const std::vector<std::string>& extra) {
     const int port = FreeUdpPort();
-    SpawnOptions so;
-    so.argv = {test::BinPath("rumi"), "calibrate", "--link", "127.0.0.1:" + std::to_string(port), "--robot-id", "7",
-               "--link-key", (dir_ / "robot.key").string(),
-               "--out", (dir_ / "camera.yaml").string(), "--save-views", (dir_ / "views").string()};
-    so.argv.insert(so.argv.end(), extra.begin(), extra.end());
-    so.log_path = (dir_ / "calibrate.log").string();
-    so.truncate_log = true;
-    std::string why;
-    pid_ = SpawnChild(so, &why);
-    EXPECT_GT(pid_, 0) << why;
+    std::vector<std::string> argv = {test::BinPath("rumi"), "calibrate", "--link", "127.0.0.1:" + std::to_string(port),
+                                     "--robot-id", "7", "--link-key", (dir_ / "robot.key").string(),
+                                     "--out", (dir_ / "camera.yaml").string(), "--save-views", (dir_ / "views").string()};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    pid_ = test::Start(argv, (dir_ / "calibrate.log").string());
     return port;
   }
   // Streams the frames at 20 fps until the calibrator exits; its exit code.
@@ -91,7 +83,8 @@ class CalibrateLink : public ::testing::Test {
     }
     return -1;
   }
-  fs::path dir_;
+  TempDir tmp_;
+  fs::path dir_ = tmp_.path();
   LinkKey key_{};
   pid_t pid_ = -1;
   std::unique_ptr<SimRobot> robot_;

@@ -14,6 +14,7 @@
 #include <functional>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
@@ -21,10 +22,10 @@
 
 #include "common/dataset.h"
 #include "common/process/process_info.h"
-#include "common/process/subprocess.h"
 #include "common/trajectory.h"
 #include "common/trajectory_eval.h"
 #include "ipc/segments.h"
+#include "common/testing/temp_dir.h"
 #include "tests/rumi_cli_util.h"
 
 namespace rumi {
@@ -61,9 +62,8 @@ std::set<std::string> ReceivedSubmaps(const fs::path& state) {
 class DaemonFaults : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = fs::temp_directory_path() / ("rumi_daemon_kill_test_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    tmp_ = std::make_unique<TempDir>();  // kept with RUMI_KEEP_TEST_DIR (debugging: the logs stay)
+    dir_ = tmp_->Create();
     // 20 s at 640x480: the dark stretch (1 s, from 8 s) makes the front lose
     // track and the sampler ship a window; a front restart (~0.7 s) costs
     // about 3 points of the 20 s.
@@ -74,9 +74,7 @@ class DaemonFaults : public ::testing::Test {
               0)
         << Slurp(dir_ / "synth.log");
   }
-  static void TearDownTestSuite() {
-    if (!std::getenv("RUMI_KEEP_TEST_DIR")) fs::remove_all(dir_);
-  }
+  static void TearDownTestSuite() { tmp_.reset(); }
 
   std::string Config(const std::string& name) {
     const fs::path p = dir_ / (name + ".yaml");
@@ -91,14 +89,8 @@ class DaemonFaults : public ::testing::Test {
   }
 
   pid_t StartRumid(const std::string& name) {
-    SpawnOptions so;
-    so.argv = {Bin("rumid"), "--config", Config(name), "--instance", name + std::to_string(::getpid() % 100000)};
-    so.log_path = (dir_ / ("rumid_" + name + ".log")).string();
-    so.truncate_log = true;
-    std::string why;
-    const pid_t pid = SpawnChild(so, &why);
-    EXPECT_GT(pid, 0) << why;
-    return pid;
+    return test::Start({Bin("rumid"), "--config", Config(name), "--instance", name + std::to_string(::getpid() % 100000)},
+                       (dir_ / ("rumid_" + name + ".log")).string());
   }
 
   // Merged tracking rate (covered time / sequence time) of a state folder.
@@ -130,16 +122,7 @@ class DaemonFaults : public ::testing::Test {
                   << Status(state).dump(1) << "\nrumid log tail:\n" << Tail(dir_ / ("rumid_" + name + ".log"))
                   << "\nback log tail:\n" << Tail(state / "logs" / "rumi-back.log")
                   << "\nmanager log tail:\n" << Tail(state / "logs" / "rumi-manager.log");
-    ::kill(pid, SIGTERM);
-    const auto t1 = Clock::now();
-    while (::waitpid(pid, status, WNOHANG) != pid) {
-      if (Since(t1) > 30) {
-        ::kill(pid, SIGKILL);
-        ::waitpid(pid, status, 0);
-        break;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    }
+    test::Stop(pid, 30, std::chrono::milliseconds(100));
     return false;
   }
   static std::string Tail(const fs::path& p) {
@@ -148,8 +131,10 @@ class DaemonFaults : public ::testing::Test {
   }
 
   std::function<void()> on_wait_;
+  static std::unique_ptr<TempDir> tmp_;
   static fs::path dir_, seq_;
 };
+std::unique_ptr<TempDir> DaemonFaults::tmp_;
 fs::path DaemonFaults::dir_, DaemonFaults::seq_;
 
 TEST_F(DaemonFaults, EveryChildKilledOnceAndTheMapStillCoversTheSequence) {
@@ -171,13 +156,7 @@ TEST_F(DaemonFaults, EveryChildKilledOnceAndTheMapStillCoversTheSequence) {
     std::function<void()> f;
     ~StopOnReturn() { f(); }
   } stop_on_return{[&] {
-    if (reaped) return;
-    ::kill(pid, SIGTERM);
-    const auto t1 = Clock::now();
-    while (::waitpid(pid, nullptr, WNOHANG) != pid && Since(t1) < 30)
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    ::kill(pid, SIGKILL);
-    ::waitpid(pid, nullptr, WNOHANG);
+    if (!reaped) test::Stop(pid, 30, std::chrono::milliseconds(100));
   }};
   std::set<pid_t> pids;  // every child process seen, of every generation
   auto watch = [&] {

@@ -10,9 +10,8 @@
 #include <thread>
 
 #include "common/process/exit_codes.h"
-#include "common/process/subprocess.h"
 #include "ipc/channels.h"
-#include "manager/test_scenario.h"
+#include "manager/testing/test_scenario.h"
 #include "tests/rumi_cli_util.h"
 
 namespace rumi {
@@ -32,9 +31,7 @@ class DdsQueryTest : public ::testing::Test {
  protected:
   void SetUp() override {
     instance_ = "ddsq_" + std::to_string(::getpid());
-    dir_ = fs::temp_directory_path() / instance_;
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    tmp_.Create();
     std::ofstream(dir_ / "config.yaml") << "dds: {enabled: true}\nmanager: {rebuild_interval_s: 0.2}\n";
   }
   void TearDown() override {
@@ -42,7 +39,7 @@ class DdsQueryTest : public ::testing::Test {
       ::kill(manager_, SIGKILL);
       test::WaitExit(manager_, 10);
     }
-    if (!HasFailure()) fs::remove_all(dir_);
+    if (HasFailure()) tmp_.Keep();
   }
   // `rumi query --instance <ours> ARGS`, output in dir_/<name>.log.
   int Query(const std::string& args, const std::string& name, const std::string& instance = "") {
@@ -52,7 +49,8 @@ class DdsQueryTest : public ::testing::Test {
   std::string Log(const std::string& name) { return Slurp(dir_ / (name + ".log")); }
 
   std::string instance_;
-  fs::path dir_;
+  TempDir tmp_;
+  fs::path dir_ = tmp_.path();
   pid_t manager_ = -1;
 };
 
@@ -65,13 +63,11 @@ TEST_F(DdsQueryTest, NoServerIsAClearTimeOut) {
 }
 
 TEST_F(DdsQueryTest, QueriesARunningManager) {
-  SpawnOptions so;
-  so.argv = {test::BinPath("rumi-manager"), "--instance", instance_, "--out", (dir_ / "out").string(),
-             "--config", (dir_ / "config.yaml").string()};
-  so.log_path = (dir_ / "manager.log").string();
-  std::string why;
-  manager_ = SpawnChild(so, &why);
-  ASSERT_GT(manager_, 0) << why;
+  std::vector<std::string> argv = {test::BinPath("rumi-manager"), "--instance", instance_, "--out",
+                                   (dir_ / "out").string(), "--config", (dir_ / "config.yaml").string()};
+  const std::string log = (dir_ / "manager.log").string();
+  manager_ = test::Start(argv, log, {}, /*append=*/true);
+  ASSERT_GT(manager_, 0);
   IpcOptions ipc;
   ipc.instance = instance_;
   const auto s = testing::MakeScenario();
@@ -91,10 +87,10 @@ TEST_F(DdsQueryTest, QueriesARunningManager) {
   manager_ = -1;
   // The manager has ended: its last snapshot is gone with it. Run it again
   // on the saved map (it reloads map.rumi) and query that one.
-  so.argv.push_back("--wait-for-producers");
-  so.argv.push_back("600");
-  manager_ = SpawnChild(so, &why);
-  ASSERT_GT(manager_, 0) << why;
+  argv.push_back("--wait-for-producers");
+  argv.push_back("600");
+  manager_ = test::Start(argv, log, {}, /*append=*/true);
+  ASSERT_GT(manager_, 0);
 
   nlohmann::json st;
   for (int i = 0; i < 100; ++i) {  // the reloaded map is published once loaded
@@ -137,10 +133,7 @@ TEST_F(DdsQueryTest, QueriesARunningManager) {
   EXPECT_NE(Log("badbox").find("box_min[0]"), std::string::npos) << Log("badbox");
 
   // The C example of docs/dds.md reads the same.
-  ASSERT_EQ(std::system((test::BinPath("rumi-dds-example") + " " + instance_ + " lo > " + (dir_ / "example.log").string() +
-                         " 2>&1")
-                            .c_str()),
-            0)
+  ASSERT_EQ(test::RunLogged(test::BinPath("rumi-dds-example") + " " + instance_ + " lo", dir_ / "example.log"), 0)
       << Slurp(dir_ / "example.log");
   EXPECT_NE(Slurp(dir_ / "example.log").find("trajectory: " + std::to_string(st.value("trajectory_frames", -1)) + " poses"),
             std::string::npos)

@@ -8,14 +8,15 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <thread>
 
 #include "common/process/process_info.h"
-#include "common/process/subprocess.h"
 #include "ipc/channels.h"
+#include "common/testing/temp_dir.h"
 #include "tests/rumi_cli_util.h"
 
 namespace {
@@ -25,9 +26,8 @@ using rumi::test::Slurp;
 int RunRumi(const std::string& args, const fs::path& log) { return rumi::test::RunRumiLogged(args, log); }
 
 TEST(EvalRun, FrontOnlyRunWritesCompleteMetrics) {
-  const fs::path dir = fs::temp_directory_path() / ("rumi_eval_run_test_" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const rumi::TempDir tmp;
+  const fs::path dir = tmp.Create();
   const fs::path seq = dir / "seq";
   ASSERT_EQ(RunRumi("synth " + seq.string() + " --scenario smooth --frames 60 --size 320x240 --seed 3",
                 dir / "synth.log"), 0)
@@ -76,29 +76,29 @@ TEST(EvalRun, FrontOnlyRunWritesCompleteMetrics) {
   const std::string front_log = Slurp(out / "run_1" / "rumi-front.log");
   EXPECT_NE(front_log.find("pose source " + (seq / "odometry.txt").string() + " (60 poses)"), std::string::npos)
       << front_log;
-  fs::remove_all(dir);
 }
 
 // What a new user ran into, each fixed and kept fixed.
 class EvalRunFindings : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = fs::temp_directory_path() / ("rumi_eval_findings_" + std::to_string(getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    tmp_ = std::make_unique<rumi::TempDir>();
+    dir_ = tmp_->Create();
     seq_ = dir_ / "smooth";
     ASSERT_EQ(RunRumi("synth " + seq_.string() + " --scenario smooth --frames 60 --size 320x240 --seed 3",
                       dir_ / "synth.log"),
               0)
         << Slurp(dir_ / "synth.log");
   }
-  static void TearDownTestSuite() { fs::remove_all(dir_); }
+  static void TearDownTestSuite() { tmp_.reset(); }
   static std::string EvalArgs(const fs::path& out, const std::string& extra = "") {
     return "eval run " + seq_.string() + " --dataset tum --config " + (seq_ / "camera.yaml").string() + " --out " +
            out.string() + " " + extra;
   }
+  static std::unique_ptr<rumi::TempDir> tmp_;
   static fs::path dir_, seq_;
 };
+std::unique_ptr<rumi::TempDir> EvalRunFindings::tmp_;
 fs::path EvalRunFindings::dir_, EvalRunFindings::seq_;
 
 // A second run into the same --out used to reload the first run's map and
@@ -122,15 +122,11 @@ TEST_F(EvalRunFindings, ASecondRunIntoTheSameOutIsRefusedOrCleared) {
 // child says it stopped early, and the run fails at once naming it.
 TEST_F(EvalRunFindings, AChildStoppedBeforeItsWorkIsDoneFailsTheRun) {
   const fs::path out = dir_ / "sigterm";
-  rumi::SpawnOptions so;
-  const char* bin = std::getenv("RUMI_BIN_DIR");
-  so.argv = {std::string(bin ? bin : ".") + "/rumi"};
+  std::vector<std::string> argv = {rumi::test::BinPath("rumi")};
   std::istringstream words(EvalArgs(out, "--rate 0.5"));
-  for (std::string w; words >> w;) so.argv.push_back(w);
-  so.log_path = (dir_ / "sigterm.log").string();
-  std::string why;
-  const pid_t eval = rumi::SpawnChild(so, &why);
-  ASSERT_GT(eval, 0) << why;
+  for (std::string w; words >> w;) argv.push_back(w);
+  const pid_t eval = rumi::test::Start(argv, (dir_ / "sigterm.log").string());
+  ASSERT_GT(eval, 0);
   // rumi-manager, a child of that `rumi eval run`.
   pid_t manager = 0;
   const auto t0 = std::chrono::steady_clock::now();
@@ -156,10 +152,7 @@ TEST_F(EvalRunFindings, AChildStoppedBeforeItsWorkIsDoneFailsTheRun) {
   // earlier kills it by default, which is reported too, but not what this
   // test is about. Bounded, for a loaded machine.
   const fs::path manager_log = out / "run_1" / "rumi-manager.log";
-  const auto t_up = std::chrono::steady_clock::now();
-  while (Slurp(manager_log).find("manager: instance") == std::string::npos &&
-         std::chrono::steady_clock::now() - t_up < std::chrono::seconds(30))
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  rumi::test::WaitFor([&] { return Slurp(manager_log).find("manager: instance") != std::string::npos; }, 30);
   ::kill(manager, SIGTERM);
   int status = 0;
   const auto t1 = std::chrono::steady_clock::now();

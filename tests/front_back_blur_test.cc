@@ -4,8 +4,6 @@
 // frames densely, and the back submap COLMAP builds from that window holds
 // the frames the front lost, under their exact timestamps.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cstdlib>
@@ -17,6 +15,7 @@
 
 #include "common/run_metrics.h"
 #include "common/timestamp.h"
+#include "common/testing/temp_dir.h"
 #include "tests/rumi_cli_util.h"
 
 namespace rumi {
@@ -33,9 +32,8 @@ using test::Slurp;
 int RunRumi(const std::string& args, const fs::path& log) { return test::RunRumiLogged(args, log); }
 
 TEST(FrontBackBlur, BackSubmapCoversTheFramesTheFrontLost) {
-  const fs::path dir = fs::temp_directory_path() / ("rumi_front_back_blur_test_" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const TempDir tmp;
+  const fs::path dir = tmp.Create();
   const fs::path seq = dir / "blur";
   ASSERT_EQ(RunRumi("synth " + seq.string() + " " + kSynthArgs, dir / "synth.log"), 0) << Slurp(dir / "synth.log");
   // The manager bakes settled submaps into its base after 1 s (300 s by
@@ -133,7 +131,6 @@ TEST(FrontBackBlur, BackSubmapCoversTheFramesTheFrontLost) {
               lost.size(), static_cast<long>(lost_in_blur), window_stamps.size(), s2.size(), best, best_lost,
               100 * m["front_tracking_rate_time"].get<double>(), 100 * m["merged_tracking_rate_time"].get<double>(),
               m["back_seconds"].get<double>());
-  fs::remove_all(dir);
 }
 
 }  // namespace

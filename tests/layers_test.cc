@@ -70,5 +70,39 @@ TEST(Layers, NoFileIncludesUpOrSideways) {
   EXPECT_GT(files, 300u);  // the tree was read
 }
 
+// Test support (common/testing/, manager/testing/, ...) is for tests and
+// benchmarks only: a process that included it would carry a test fixture.
+bool IsTestCode(const fs::path& rel) {
+  const std::string name = rel.stem().string();
+  if (name.size() > 5 && name.compare(name.size() - 5, 5, "_test") == 0) return true;
+  if (name.size() > 10 && name.compare(name.size() - 10, 10, "_benchmark") == 0) return true;
+  for (const auto& part : rel.parent_path())
+    if (part == "testing" || part == "tests") return true;
+  return false;
+}
+
+TEST(Layers, OnlyTestsAndBenchmarksIncludeTestSupport) {
+  EXPECT_TRUE(IsTestCode("front/matcher_test.cc"));
+  EXPECT_TRUE(IsTestCode("manager/merge_benchmark.cc"));
+  EXPECT_TRUE(IsTestCode("manager/testing/synthetic_walk.cc"));
+  EXPECT_TRUE(IsTestCode("tests/rumi_cli_util.h"));
+  EXPECT_FALSE(IsTestCode("manager/merge.cc"));
+  EXPECT_FALSE(IsTestCode("apps/cli/synth_command.cc"));
+  static const std::regex testing_include(R"(^\s*#\s*include\s*"[a-z_0-9/]*/testing/)");
+  const fs::path root = RUMI_SOURCE_DIR;
+  for (const auto& layer : Layers()) {
+    for (const auto& e : fs::recursive_directory_iterator(root / layer.first)) {
+      const std::string ext = e.path().extension().string();
+      if (!e.is_regular_file() || (ext != ".h" && ext != ".cc" && ext != ".c")) continue;
+      const fs::path rel = fs::relative(e.path(), root);
+      if (IsTestCode(rel)) continue;
+      std::ifstream in(e.path());
+      std::string line;
+      for (int n = 1; std::getline(in, line); ++n)
+        if (std::regex_search(line, testing_include)) ADD_FAILURE() << rel.string() << ":" << n << ": " << line;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace rumi

@@ -20,40 +20,26 @@
 #include "common/process/exit_codes.h"
 #include "common/process/process_info.h"
 #include "common/process/subprocess.h"
-#include "common/process/test_child.h"
+#include "common/testing/test_child.h"
 #include "common/timestamp.h"
 #include "ipc/channels.h"
 #include "manager/map_file.h"
-#include "manager/test_scenario.h"
+#include "manager/testing/test_scenario.h"
 #include "tests/rumi_cli_util.h"
 
 namespace rumi {
 namespace {
 namespace fs = std::filesystem;
 
-std::string ManagerBinary() {
-  const char* dir = std::getenv("RUMI_BIN_DIR");
-  return (fs::path(dir ? dir : RUMI_BINARY_DIR "/bin") / "rumi-manager").string();
-}
+using test::Slurp;
 
-// Starts rumi-manager with stderr to `log`.
+std::string ManagerBinary() { return test::BinPath("rumi-manager"); }
+
+// Starts rumi-manager with its output appended to `log`.
 pid_t Spawn(const std::vector<std::string>& args, const std::string& log) {
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    if (fd >= 0) {
-      ::dup2(fd, 2);
-      ::dup2(fd, 1);
-    }
-    std::vector<char*> argv;
-    const std::string bin = ManagerBinary();
-    argv.push_back(const_cast<char*>(bin.c_str()));
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    ::execv(bin.c_str(), argv.data());
-    ::_exit(127);
-  }
-  return pid;
+  std::vector<std::string> argv = {ManagerBinary()};
+  argv.insert(argv.end(), args.begin(), args.end());
+  return test::Start(argv, log, {}, /*append=*/true);
 }
 
 // Exit status, or -1 (child killed) when it does not end within timeout_s.
@@ -72,13 +58,6 @@ bool WaitAttached(SubmapSender* front, SubmapSender* back, pid_t pid, double tim
   return false;
 }
 
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 std::vector<Timestamp> TumTimes(const std::string& path) {
   std::vector<Timestamp> t;
   std::ifstream in(path);
@@ -90,13 +69,6 @@ std::vector<Timestamp> TumTimes(const std::string& path) {
     t.push_back(ns);
   }
   return t;
-}
-
-template <typename F>
-bool WaitUntil(F cond, double seconds) {
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-  while (!cond() && std::chrono::steady_clock::now() < end) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  return cond();
 }
 
 // The full-disk scenario, run by a child process in a mount namespace of its
@@ -140,9 +112,9 @@ int FullDiskScenario() {
   front.Send(s.front_a.submap);
   const fs::path map = state / "map.rumi";
   // "phases" is logged once the rebuild's writes are done.
-  if (!WaitUntil([&] { return fs::exists(map) && ReadAll(log).find("rebuild 1 phases") != std::string::npos; }, 20))
+  if (!test::WaitFor([&] { return fs::exists(map) && Slurp(log).find("rebuild 1 phases") != std::string::npos; }, 20))
     return 2;
-  const std::string before = ReadAll(map.string());
+  const std::string before = Slurp(map.string());
   {  // fill the disk
     std::ofstream filler(state / "filler", std::ios::binary);
     const std::string block(64 << 10, 'x');
@@ -152,9 +124,9 @@ int FullDiskScenario() {
   back.Send(s.back.submap);
   front.Send(s.front_b.submap);
   // The rebuild's save (not only the journal's) hit the full disk.
-  if (!WaitUntil(
+  if (!test::WaitFor(
           [&] {
-            const std::string text = ReadAll(log);
+            const std::string text = Slurp(log);
             const size_t at = text.find("map.rumi.raw.tmp");
             return at != std::string::npos && text.find("No space left on device", at) != std::string::npos;
           },
@@ -162,12 +134,12 @@ int FullDiskScenario() {
     return 3;
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   if (!ProcessRunning(pid)) return 4;                  // the manager stays up
-  if (ReadAll(map.string()) != before) return 5;       // the previous map, intact
+  if (Slurp(map.string()) != before) return 5;       // the previous map, intact
   GlobalMap loaded;
   std::string why;
   if (!LoadGlobalMap(map.string(), &loaded, &why) || loaded.size() != 1) return 6;
   fs::remove(state / "filler");  // room again: the manager saves on its own
-  if (!WaitUntil([&] { return ReadAll(log).find("saved again") != std::string::npos; }, 30)) return 7;
+  if (!test::WaitFor([&] { return Slurp(log).find("saved again") != std::string::npos; }, 30)) return 7;
   if (!LoadGlobalMap(map.string(), &loaded, &why) || loaded.size() != 3) return 8;
   ::kill(pid, SIGTERM);
   if (WaitExit(pid, 20) != kExitStopped) return 9;
@@ -185,9 +157,7 @@ class ManagerProcess : public ::testing::Test {
   void SetUp() override {
     ASSERT_TRUE(fs::exists(ManagerBinary())) << ManagerBinary();
     instance_ = "test_" + std::to_string(::getpid());
-    dir_ = fs::temp_directory_path() / ("rumi_mgrproc_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    tmp_.Create();
     ipc_.instance = instance_;
   }
   void TearDown() override {
@@ -200,7 +170,7 @@ class ManagerProcess : public ::testing::Test {
     }
     for (const char* channel : {kFrontSubmapChannel, kBackSubmapChannel, kMapNoticeChannel})
       RemoveSegment(SegmentName(instance_, channel));
-    if (!HasFailure() && !std::getenv("RUMI_KEEP_TEST_DIR")) fs::remove_all(dir_);
+    if (HasFailure()) tmp_.Keep();  // the logs stay
   }
   std::vector<std::string> Args(const std::string& extra_wait = "15") const {
     return {"--instance", instance_, "--out", (dir_ / "out").string(), "--wait-for-producers", extra_wait,
@@ -213,7 +183,8 @@ class ManagerProcess : public ::testing::Test {
   }
   std::vector<pid_t> spawned_;
   std::string instance_;
-  fs::path dir_;
+  TempDir tmp_;
+  fs::path dir_ = tmp_.path();
   IpcOptions ipc_;
 };
 
@@ -226,7 +197,7 @@ TEST_F(ManagerProcess, MergesWhatTheProducersSendAndReloadsTheMap) {
     SubmapSender front(ipc_, SubmapSource::kFront);
     SubmapSender back(ipc_, SubmapSource::kBack);
     const bool attached = WaitAttached(&front, &back, pid, 10);
-    EXPECT_TRUE(attached) << ReadAll(log);
+    EXPECT_TRUE(attached) << Slurp(log);
     // A malformed record first: logged, counted, survived.
     const std::string garbage = "RUMISMAP this is not a submap record";
     EXPECT_EQ(front.ring().PushCopy(garbage.data(), garbage.size()), PushStatus::kOk);
@@ -234,13 +205,13 @@ TEST_F(ManagerProcess, MergesWhatTheProducersSendAndReloadsTheMap) {
     EXPECT_EQ(back.Send(s.back.submap), PushStatus::kOk);
     EXPECT_EQ(front.Send(s.front_b.submap), PushStatus::kOk);
   }  // clean exit of both producers: channels closed
-  ASSERT_EQ(WaitExit(pid, 20), 0) << ReadAll(log);
+  ASSERT_EQ(WaitExit(pid, 20), 0) << Slurp(log);
 
   const fs::path out = dir_ / "out";
   const auto times = TumTimes((out / "merged.txt").string());
-  ASSERT_EQ(times.size(), 111u) << ReadAll(log);
+  ASSERT_EQ(times.size(), 111u) << Slurp(log);
   for (int f = 0; f <= 110; ++f) EXPECT_EQ(times[f], s.scene.timestamps[f]) << f;
-  nlohmann::json j = nlohmann::json::parse(ReadAll((out / "manager_stats.json").string()));
+  nlohmann::json j = nlohmann::json::parse(Slurp((out / "manager_stats.json").string()));
   EXPECT_GE(j["merges"].get<int>(), 2);
   EXPECT_EQ(j["components"], 1);
   EXPECT_EQ(j["submaps_front"], 2);
@@ -248,7 +219,7 @@ TEST_F(ManagerProcess, MergesWhatTheProducersSendAndReloadsTheMap) {
   EXPECT_EQ(j["saved_frames"], 93);
   EXPECT_LT(j["saved_frames_postculled"].get<int>(), 93);
   EXPECT_EQ(j["decode_errors"], 1);
-  const std::string text = ReadAll(log);
+  const std::string text = Slurp(log);
   EXPECT_NE(text.find("undecodable submap"), std::string::npos) << text;
   ASSERT_TRUE(fs::exists(out / "map.rumi"));
   const int postculled = j["saved_frames_postculled"];
@@ -260,17 +231,17 @@ TEST_F(ManagerProcess, MergesWhatTheProducersSendAndReloadsTheMap) {
   {
     SubmapSender front(ipc_, SubmapSource::kFront);
     SubmapSender back(ipc_, SubmapSource::kBack);
-    EXPECT_TRUE(WaitAttached(&front, &back, pid2, 10)) << ReadAll(log);
+    EXPECT_TRUE(WaitAttached(&front, &back, pid2, 10)) << Slurp(log);
   }
-  ASSERT_EQ(WaitExit(pid2, 20), 0) << ReadAll(log);
-  j = nlohmann::json::parse(ReadAll((out / "manager_stats.json").string()));
+  ASSERT_EQ(WaitExit(pid2, 20), 0) << Slurp(log);
+  j = nlohmann::json::parse(Slurp((out / "manager_stats.json").string()));
   EXPECT_EQ(j["base_submaps"], 3);
   EXPECT_EQ(j["saved_frames"], 93);
   EXPECT_EQ(j["saved_frames_postculled"], postculled);
   EXPECT_EQ(j["merges"], 2);
   EXPECT_EQ(j["components"], 1);
   EXPECT_EQ(TumTimes((out / "merged.txt").string()).size(), 111u);
-  EXPECT_NE(ReadAll(log).find("reloaded"), std::string::npos);
+  EXPECT_NE(Slurp(log).find("reloaded"), std::string::npos);
   EXPECT_FALSE(fs::exists(out / "map.rumi.bad"));
 }
 
@@ -283,16 +254,16 @@ TEST_F(ManagerProcess, SigtermSavesWhatArrivedAndSaysSo) {
   ASSERT_GT(pid, 0);
   SubmapSender front(ipc_, SubmapSource::kFront);
   SubmapSender back(ipc_, SubmapSource::kBack);
-  ASSERT_TRUE(WaitAttached(&front, &back, pid, 10)) << ReadAll(log);
+  ASSERT_TRUE(WaitAttached(&front, &back, pid, 10)) << Slurp(log);
   EXPECT_EQ(front.Send(s.front_a.submap), PushStatus::kOk);
   // Wait until the manager has read it, then stop it.
   for (int i = 0; i < 500 && front.ring().Stats().popped == 0; ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   ::kill(pid, SIGTERM);
-  ASSERT_EQ(WaitExit(pid, 20), kExitStopped) << ReadAll(log);
+  ASSERT_EQ(WaitExit(pid, 20), kExitStopped) << Slurp(log);
   const fs::path out = dir_ / "out";
-  EXPECT_EQ(TumTimes((out / "merged.txt").string()).size(), 41u) << ReadAll(log);
-  const auto j = nlohmann::json::parse(ReadAll((out / "manager_stats.json").string()));
+  EXPECT_EQ(TumTimes((out / "merged.txt").string()).size(), 41u) << Slurp(log);
+  const auto j = nlohmann::json::parse(Slurp((out / "manager_stats.json").string()));
   EXPECT_EQ(j["submaps_front"], 1);
   EXPECT_TRUE(fs::exists(out / "map.rumi"));
 }
@@ -329,10 +300,10 @@ TEST_F(ManagerProcess, AProducerThatDiesWithoutClosingCountsAsFinished) {
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     EXPECT_EQ(back.Send(s.back.submap), PushStatus::kOk);
   }
-  ASSERT_EQ(WaitExit(pid, 20), 0) << ReadAll(log);
-  const std::string text = ReadAll(log);
+  ASSERT_EQ(WaitExit(pid, 20), 0) << Slurp(log);
+  const std::string text = Slurp(log);
   EXPECT_NE(text.find("died without closing"), std::string::npos) << text;
-  const auto j = nlohmann::json::parse(ReadAll((dir_ / "out" / "manager_stats.json").string()));
+  const auto j = nlohmann::json::parse(Slurp((dir_ / "out" / "manager_stats.json").string()));
   EXPECT_EQ(j["merges"], 1);
   EXPECT_EQ(TumTimes((dir_ / "out" / "merged.txt").string()).size(), 81u);
 }
@@ -346,16 +317,16 @@ TEST_F(ManagerProcess, ARestartedFrontIsReadAgain) {
     SubmapSender back(ipc_, SubmapSource::kBack);
     {
       SubmapSender front(ipc_, SubmapSource::kFront);
-      ASSERT_TRUE(WaitAttached(&front, &back, pid, 10)) << ReadAll(log);
+      ASSERT_TRUE(WaitAttached(&front, &back, pid, 10)) << Slurp(log);
       EXPECT_EQ(front.Send(s.front_a.submap), PushStatus::kOk);
     }  // the first front closes; the back is still open, so the manager goes on
     SubmapSender front(ipc_, SubmapSource::kFront);
-    ASSERT_TRUE(WaitAttached(&front, &back, pid, 10)) << ReadAll(log);
+    ASSERT_TRUE(WaitAttached(&front, &back, pid, 10)) << Slurp(log);
     EXPECT_EQ(front.Send(s.front_b.submap), PushStatus::kOk);
     EXPECT_EQ(back.Send(s.back.submap), PushStatus::kOk);
   }
-  ASSERT_EQ(WaitExit(pid, 20), 0) << ReadAll(log);
-  const auto j = nlohmann::json::parse(ReadAll((dir_ / "out" / "manager_stats.json").string()));
+  ASSERT_EQ(WaitExit(pid, 20), 0) << Slurp(log);
+  const auto j = nlohmann::json::parse(Slurp((dir_ / "out" / "manager_stats.json").string()));
   EXPECT_EQ(j["messages_front"], 2);
   EXPECT_EQ(j["merges"], 2);
   EXPECT_EQ(TumTimes((dir_ / "out" / "merged.txt").string()).size(), 111u);
@@ -370,7 +341,7 @@ TEST_F(ManagerProcess, RefusesAConfigWithAnUnknownKey) {
   args.push_back(cfg);
   const pid_t pid = Start(args, log);
   EXPECT_EQ(WaitExit(pid, 10), 2);
-  const std::string text = ReadAll(log);
+  const std::string text = Slurp(log);
   EXPECT_NE(text.find("bad.yaml"), std::string::npos) << text;
   EXPECT_NE(text.find("manager.no_such_key"), std::string::npos) << text;
   // Every section is checked, the other processes' too.
@@ -381,8 +352,8 @@ TEST_F(ManagerProcess, RefusesAConfigWithAnUnknownKey) {
 // error; the manager stays up and saves once there is room again.
 TEST(ManagerFullDisk, PreviousMapStaysIntactAndTheManagerStaysUp) {
   ASSERT_TRUE(fs::exists(ManagerBinary())) << ManagerBinary();
-  const fs::path dir = fs::temp_directory_path() / ("rumi_fulldisk_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const TempDir tmp;
+  const fs::path dir = tmp.path();
   fs::create_directories(dir / "state");
   SpawnOptions so;
   so.argv = testing::ChildArgv();
@@ -403,8 +374,7 @@ TEST(ManagerFullDisk, PreviousMapStaysIntactAndTheManagerStaysUp) {
                           "the new map with all three submaps",
                           "exit code 5 on SIGTERM"};
   EXPECT_EQ(rc, 0) << "failed check: " << (rc > 0 && rc < 10 ? checks[rc] : "?") << "\n--- manager log ---\n"
-                   << ReadAll((dir / "manager.log").string());
-  fs::remove_all(dir);
+                   << Slurp((dir / "manager.log").string());
 }
 
 }  // namespace

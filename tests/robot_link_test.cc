@@ -24,7 +24,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "common/process/subprocess.h"
+#include "common/testing/temp_dir.h"
 #include "tests/rumi_cli_util.h"
 
 namespace rumi {
@@ -36,9 +36,7 @@ using test::Slurp;
 class RobotLink : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("rumi_robot_link_test_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    tmp_.Create();
     port_ = 20000 + ::getpid() % 20000;
   }
   fs::path Key() {
@@ -55,7 +53,6 @@ class RobotLink : public ::testing::Test {
         ::kill(p, SIGKILL);
         ::waitpid(p, nullptr, 0);
       }
-    fs::remove_all(dir_);
   }
   fs::path Synth(const std::string& scenario, int frames, int seed, const std::string& extra = "") {
     const fs::path seq = dir_ / scenario;
@@ -65,16 +62,6 @@ class RobotLink : public ::testing::Test {
               0)
         << Slurp(dir_ / "synth.log");
     return seq;
-  }
-  pid_t Spawn(std::vector<std::string> argv, const fs::path& log) {
-    SpawnOptions so;
-    so.argv = std::move(argv);
-    so.log_path = log.string();
-    so.truncate_log = true;
-    std::string why;
-    const pid_t pid = SpawnChild(so, &why);
-    EXPECT_GT(pid, 0) << why;
-    return pid;
   }
   // rumid on a link source until the robot is silent for 2 s; the front's
   // final link statistics.
@@ -88,9 +75,9 @@ class RobotLink : public ::testing::Test {
                        << "daemon:\n  child_output: files\n  state_dir: " << state().string()
                        << "\n  status_interval_s: 0.2\n"
                        << front_extra;
-    rumid_ = Spawn({test::BinPath("rumid"), "--config", cfg.string(), "--instance",
-                    "rlink" + std::to_string(::getpid() % 100000)},
-                   dir_ / "rumid.log");
+    rumid_ = test::Start({test::BinPath("rumid"), "--config", cfg.string(), "--instance",
+                          "rlink" + std::to_string(::getpid() % 100000)},
+                         (dir_ / "rumid.log").string());
     // The robot may start before the ground station listens (a loaded
     // machine starts rumid's front late): it stands, sends its heartbeats
     // and waits to be heard, as the firmware does, and that is no fail-safe
@@ -108,7 +95,7 @@ class RobotLink : public ::testing::Test {
                                      Key().string()};
     argv.insert(argv.end(), sim_args.begin(), sim_args.end());
     std::this_thread::sleep_for(std::chrono::seconds(2));
-    sim_ = Spawn(argv, dir_ / "sim.log");
+    sim_ = test::Start(argv, (dir_ / "sim.log").string());
     nlohmann::json last;
     const auto t0 = std::chrono::steady_clock::now();
     int sim_rc = -1, rumid_rc = -1;
@@ -143,7 +130,8 @@ class RobotLink : public ::testing::Test {
   fs::path state() const { return dir_ / "state"; }
   nlohmann::json SimStats() const { return nlohmann::json::parse(Slurp(dir_ / "sim.json")); }
 
-  fs::path dir_;
+  TempDir tmp_;
+  fs::path dir_ = tmp_.path();
   int port_ = 0;
   pid_t rumid_ = -1, sim_ = -1;
 };
@@ -285,9 +273,9 @@ TEST_F(RobotLink, KeysAreMadeKeptPrivateAndRequired) {
   const fs::path cfg = dir_ / "open.yaml";
   std::ofstream(cfg) << Slurp(seq / "camera.yaml") << "source:\n  kind: link\n  link: {bind: \"127.0.0.1:0\", key_file: "
                      << key.string() << "}\ndaemon:\n  state_dir: " << state().string() << "\n";
-  rumid_ = Spawn({test::BinPath("rumid"), "--config", cfg.string(), "--instance",
-                  "rkey" + std::to_string(::getpid() % 100000)},
-                 dir_ / "open.log");
+  rumid_ = test::Start({test::BinPath("rumid"), "--config", cfg.string(), "--instance",
+                        "rkey" + std::to_string(::getpid() % 100000)},
+                       (dir_ / "open.log").string());
   const int rc = test::WaitExit(rumid_, 60, true);
   rumid_ = -1;
   EXPECT_EQ(rc, 2) << Slurp(dir_ / "open.log");

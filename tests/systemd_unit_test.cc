@@ -4,7 +4,6 @@
 // service needs (notify, watchdog, restarts, its own user, state and config
 // folders, hardening).
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -12,8 +11,9 @@
 #include <fstream>
 #include <string>
 
-#include "tests/rumi_cli_util.h"
-#include "common/test_require.h"
+#include "common/testing/process.h"
+#include "common/testing/require.h"
+#include "common/testing/temp_dir.h"
 
 namespace {
 
@@ -22,20 +22,16 @@ using rumi::test::Slurp;
 
 const std::string kUnit = std::string(RUMI_SOURCE_DIR) + "/configs/systemd/rumid@.service";
 
-std::string Rumid() {
-  const char* dir = std::getenv("RUMI_BIN_DIR");
-  return (fs::path(dir ? dir : RUMI_BINARY_DIR "/bin") / "rumid").string();
-}
+std::string Rumid() { return rumi::test::BinPath("rumid"); }
 
 // Output (stdout + stderr) and exit code of `systemd-analyze verify`.
 int Verify(const std::string& unit_text, const fs::path& dir, const std::string& name, std::string* output) {
   fs::create_directories(dir);
   std::ofstream(dir / "rumid@.service") << unit_text;
-  const std::string log = (dir / "verify.log").string();
-  const std::string cmd = "systemd-analyze verify " + (dir / name).string() + " > " + log + " 2>&1";
-  const int st = std::system(cmd.c_str());
+  const fs::path log = dir / "verify.log";
+  const int code = rumi::test::RunLogged("systemd-analyze verify " + (dir / name).string(), log);
   *output = Slurp(log);
-  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return code;
 }
 
 TEST(SystemdUnit, VerifiesCleanlyAndHoldsWhatTheServiceNeeds) {
@@ -46,7 +42,8 @@ TEST(SystemdUnit, VerifiesCleanlyAndHoldsWhatTheServiceNeeds) {
   const std::string exec = "/usr/local/bin/rumid";
   ASSERT_NE(unit.find(exec), std::string::npos);
   unit.replace(unit.find(exec), exec.size(), Rumid());
-  const fs::path dir = fs::temp_directory_path() / ("rumi_unit_test_" + std::to_string(getpid()));
+  const rumi::TempDir tmp;
+  const fs::path dir = tmp.path();
   std::string out;
   EXPECT_EQ(Verify(unit, dir / "ok", "rumid@robot1.service", &out), 0) << out;
   EXPECT_EQ(out, "") << "systemd-analyze warned";
@@ -62,14 +59,8 @@ TEST(SystemdUnit, VerifiesCleanlyAndHoldsWhatTheServiceNeeds) {
     const fs::path unit_path = dir / "score" / "rumid@robot1.service";
     fs::create_directories(unit_path.parent_path());
     std::ofstream(unit_path) << unit;
-    const std::string cmd = "systemd-analyze security --offline=true " + unit_path.string() + " 2>&1";
-    std::string text;
-    if (FILE* p = ::popen(cmd.c_str(), "r")) {
-      char buf[4096];
-      size_t n;
-      while ((n = std::fread(buf, 1, sizeof(buf), p)) > 0) text.append(buf, n);
-      ::pclose(p);
-    }
+    const std::string text =
+        rumi::test::RunCommand("systemd-analyze security --offline=true " + unit_path.string()).out;
     const size_t at = text.find("Overall exposure level for");
     ASSERT_NE(at, std::string::npos) << text;
     const double score = std::atof(text.c_str() + text.find(": ", at) + 2);
@@ -86,7 +77,6 @@ TEST(SystemdUnit, VerifiesCleanlyAndHoldsWhatTheServiceNeeds) {
   std::string missing = unit;
   missing.replace(missing.find(Rumid()), Rumid().size(), "/nonexistent/rumid");
   EXPECT_NE(Verify(missing, dir / "missing", "rumid@robot1.service", &out), 0) << out;
-  fs::remove_all(dir);
 }
 
 }  // namespace

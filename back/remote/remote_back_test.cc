@@ -17,9 +17,11 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "common/test_require.h"
-#include "back/canned_colmap_model.h"
+#include "back/testing/canned_colmap_model.h"
 #include "common/process/exit_codes.h"
+#include "common/testing/process.h"
+#include "common/testing/require.h"
+#include "common/testing/temp_dir.h"
 #include "common/timestamp.h"
 #include "ipc/channels.h"
 #include "ipc/submap_codec.h"
@@ -31,25 +33,18 @@ namespace rumi {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double Since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+using test::Slurp;
+const auto& Since = test::SecondsSince;
 
-std::string Slurp(const fs::path& p) {
-  std::ifstream in(p);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
-
-int Sh(const std::string& cmd) { return std::system((cmd + " > /dev/null 2>&1").c_str()); }
+int Sh(const std::string& cmd) { return test::RunLogged(cmd, "/dev/null"); }
 
 class RemoteBackTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    const char* bin = std::getenv("RUMI_BIN_DIR");
-    exe_ = (fs::path(bin ? bin : RUMI_BINARY_DIR "/bin") / "rumi-back").string();
+    exe_ = test::BinPath("rumi-back");
     RUMI_REQUIRE(fs::exists(exe_), "build rumi-back first: " << exe_);
     name_ = ::testing::UnitTest::GetInstance()->current_test_info()->name();
-    dir_ = fs::temp_directory_path() / ("rumi_remote_back_test_" + std::to_string(::getpid()) + "_" + name_);
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    tmp_.Create();
     ipc_.instance = "rtest_" + std::to_string(::getpid()) + "_" + name_.substr(0, 6);
     ipc_.window_slot_bytes = 1 << 20;
     ipc_.submap_slot_bytes = 1 << 20;
@@ -64,7 +59,6 @@ class RemoteBackTest : public ::testing::Test {
       if (p > 0) ::kill(p, SIGKILL), ::waitpid(p, nullptr, 0);
     for (const char* ch : {kWindowChannel, kBackSubmapChannel}) RemoveSegment(SegmentName(ipc_.instance, ch));
     if (!netns_a_.empty()) Sh("ip netns del " + netns_a_), Sh("ip netns del " + netns_b_);
-    if (!std::getenv("RUMI_KEEP_TEST_DIR")) fs::remove_all(dir_);  // debugging: the logs stay
   }
 
   std::string Config(const std::string& file, const std::string& mode, const std::string& interface) {
@@ -92,31 +86,17 @@ class RemoteBackTest : public ::testing::Test {
   // Starts a process (optionally inside a network namespace); its output goes to <log>.
   pid_t Start(std::vector<std::string> args, const std::string& log, const std::string& netns = "") {
     if (!netns.empty()) args.insert(args.begin(), {"/usr/sbin/ip", "netns", "exec", netns});
-    const std::string path = (dir_ / log).string();
-    const pid_t pid = ::fork();
-    if (pid == 0) {
-      std::vector<char*> argv;
-      for (auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-      argv.push_back(nullptr);
-      if (!std::freopen(path.c_str(), "w", stdout) || ::dup2(::fileno(stdout), 2) < 0) ::_exit(126);
-      ::execv(argv[0], argv.data());
-      ::_exit(127);
-    }
+    const pid_t pid = test::Start(args, (dir_ / log).string());
     pids_.push_back(pid);
     return pid;
   }
+  // Exit code, -2 when killed, -1 when still running after timeout_s.
   int Wait(pid_t pid, double timeout_s) {
-    const auto t0 = Clock::now();
-    int st = 0;
-    while (Since(t0) < timeout_s) {
-      if (::waitpid(pid, &st, WNOHANG) == pid) {
-        for (pid_t& p : pids_)
-          if (p == pid) p = -1;
-        return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    return -1;
+    const int rc = test::WaitExit(pid, timeout_s, false, std::chrono::milliseconds(10));
+    if (rc != -1)  // reaped
+      for (pid_t& p : pids_)
+        if (p == pid) p = -1;
+    return rc;
   }
   std::string Logs() const {
     std::string s;
@@ -220,7 +200,8 @@ class RemoteBackTest : public ::testing::Test {
   }
 
   std::string exe_, name_;
-  fs::path dir_;
+  TempDir tmp_;  // kept with RUMI_KEEP_TEST_DIR (debugging: the logs stay)
+  fs::path dir_ = tmp_.path();
   IpcOptions ipc_;
   int domain_ = 0;
   std::vector<pid_t> pids_;

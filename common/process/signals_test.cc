@@ -11,12 +11,13 @@
 #include <thread>
 
 #include "common/process/subprocess.h"
-#include "common/process/test_child.h"
+#include "common/testing/process.h"
+#include "common/testing/temp_dir.h"
+#include "common/testing/test_child.h"
 
 namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
 
 // A process that reacts like every rumi main: it notes a stop request and a
 // reload in files, and keeps running (finishing its work) after a stop.
@@ -39,16 +40,12 @@ int Child(const std::string& mode) {
 RUMI_TEST_CHILD_MODES(Child);
 
 bool WaitFor(const fs::path& p, double seconds) {
-  const auto t0 = Clock::now();
-  while (!fs::exists(p) && std::chrono::duration<double>(Clock::now() - t0).count() < seconds)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  return fs::exists(p);
+  return rumi::test::WaitFor([&] { return fs::exists(p); }, seconds, std::chrono::milliseconds(10));
 }
 
 TEST(ProcessSignals, FirstSigtermStopsSecondKillsHangupReloads) {
-  const fs::path dir = fs::temp_directory_path() / ("rumi_signals_test_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const rumi::TempDir tmp;
+  const fs::path dir = tmp.Create();
   rumi::SpawnOptions so;
   so.argv = rumi::testing::ChildArgv();
   so.env = {rumi::testing::ChildEnv("signals"), "RUMI_TEST_DIR=" + dir.string()};
@@ -68,7 +65,6 @@ TEST(ProcessSignals, FirstSigtermStopsSecondKillsHangupReloads) {
   ::kill(pid, SIGTERM);  // the second one ends it at once
   ASSERT_EQ(::waitpid(pid, &status, 0), pid);
   EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGTERM) << status;
-  fs::remove_all(dir);
 }
 
 }  // namespace

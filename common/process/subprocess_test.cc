@@ -10,12 +10,14 @@
 #include <sstream>
 #include <thread>
 
+#include "common/testing/temp_dir.h"
+
 namespace rumi {
 namespace {
 
 std::string TempPath(const std::string& name) {
-  return (std::filesystem::temp_directory_path() /
-          ("rumi_subprocess_test_" + std::to_string(::getpid()) + "_" + name)).string();
+  static const TempDir dir;  // removed at exit
+  return (dir.Create() / name).string();
 }
 
 TEST(Subprocess, SuccessAndLog) {

@@ -14,12 +14,15 @@
 #include "common/process/notify.h"
 #include "common/process/process_info.h"
 #include "common/process/subprocess.h"
-#include "common/process/test_child.h"
+#include "common/testing/process.h"
+#include "common/testing/temp_dir.h"
+#include "common/testing/test_child.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
+using rumi::test::WaitFor;
 
 // The children of these tests.
 int Child(const std::string& mode) {
@@ -47,7 +50,7 @@ int Child(const std::string& mode) {
 }
 RUMI_TEST_CHILD_MODES(Child);
 
-double Seconds(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+const auto& Seconds = rumi::test::SecondsSince;
 
 bool Gone(pid_t pid) { return !rumi::ProcessRunning(pid); }
 
@@ -132,8 +135,8 @@ TEST(Supervisor, NotifyMessagesOfAChildLandInItsInfo) {
 }
 
 TEST(Supervisor, StopAllStopsInOrderAndKillsWhatIgnoresSigterm) {
-  const fs::path dir = fs::temp_directory_path() / ("rumi_sup_test_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  const rumi::TempDir tmp;
+  const fs::path dir = tmp.Create();
   rumi::Supervisor sup(rumi::SupervisorOptions{});
   const std::string order = (dir / "order").string();
   const int polite = sup.Add(Shell("polite", "trap 'echo polite >> " + order + "; exit 0' TERM; while :; do sleep 0.05; done"));
@@ -142,8 +145,7 @@ TEST(Supervisor, StopAllStopsInOrderAndKillsWhatIgnoresSigterm) {
   std::string why;
   ASSERT_TRUE(sup.Start(polite, &why)) << why;
   ASSERT_TRUE(sup.Start(stubborn, &why)) << why;
-  const auto t_bg = Clock::now();
-  while (!fs::exists(dir / "bg") && Seconds(t_bg) < 5) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  WaitFor([&] { return fs::exists(dir / "bg"); }, 5, std::chrono::milliseconds(10));
   std::this_thread::sleep_for(std::chrono::milliseconds(200));  // both traps set
   pid_t bg = 0;
   std::ifstream(dir / "bg") >> bg;
@@ -158,36 +160,27 @@ TEST(Supervisor, StopAllStopsInOrderAndKillsWhatIgnoresSigterm) {
   in >> first;
   EXPECT_EQ(first, "polite");
   EXPECT_TRUE(WIFSIGNALED(sup.info(stubborn).last_status));  // killed at the deadline
-  const auto t1 = Clock::now();
-  while (!Gone(bg) && Seconds(t1) < 3) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  EXPECT_TRUE(Gone(bg)) << "a grandchild in the stubborn child's group survived";
-  fs::remove_all(dir);
+  EXPECT_TRUE(WaitFor([&] { return Gone(bg); }, 3, std::chrono::milliseconds(10)))
+      << "a grandchild in the stubborn child's group survived";
 }
 
 // PR_SET_PDEATHSIG: a supervisor killed with SIGKILL leaves no orphan.
 TEST(Supervisor, ChildrenDieWithASupervisorThatIsKilled) {
-  const fs::path pidfile = fs::temp_directory_path() / ("rumi_sup_orphan_" + std::to_string(::getpid()));
-  fs::remove(pidfile);
+  const rumi::TempDir tmp;
+  const fs::path pidfile = tmp.Create() / "sleeper.pid";
   rumi::SpawnOptions so;
   so.argv = rumi::testing::ChildArgv();
   so.env = {rumi::testing::ChildEnv("supervise-sleep"), "RUMI_TEST_PIDFILE=" + pidfile.string()};
   std::string why;
   const pid_t helper = rumi::SpawnChild(so, &why);
   ASSERT_GT(helper, 0) << why;
-  const auto t0 = Clock::now();
   pid_t sleeper = 0;
-  while (sleeper == 0 && Seconds(t0) < 10) {
-    std::ifstream(pidfile) >> sleeper;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
+  WaitFor([&] { return std::ifstream(pidfile) >> sleeper, sleeper != 0; }, 10, std::chrono::milliseconds(10));
   ASSERT_GT(sleeper, 0);
   ASSERT_FALSE(Gone(sleeper));
   ::kill(helper, SIGKILL);
   ::waitpid(helper, nullptr, 0);
-  const auto t1 = Clock::now();
-  while (!Gone(sleeper) && Seconds(t1) < 5) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  EXPECT_TRUE(Gone(sleeper)) << "orphan left behind";
-  fs::remove(pidfile);
+  EXPECT_TRUE(WaitFor([&] { return Gone(sleeper); }, 5, std::chrono::milliseconds(10))) << "orphan left behind";
 }
 
 }  // namespace

@@ -1,16 +1,19 @@
 #include "ipc/link/latency_plot.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
+
+#include "common/testing/temp_dir.h"
 
 namespace rumi {
 namespace {
 
 TEST(LatencyPlot, ReadsTheFramesLogAndDrawsDroppedFramesInRed) {
-  const std::string p = (std::filesystem::temp_directory_path() / ("frames_" + std::to_string(::getpid()) + ".csv")).string();
+  const TempDir tmp;
+  tmp.Create();
+  const std::string p = tmp / "frames.csv";
   {
     std::ofstream f(p);
     f << "frame_id,robot_us,ground_capture_us,first_us,complete_us,latency_ms,fragments,recovered,status\n";

@@ -1,13 +1,13 @@
 #include "manager/grid/grid_file.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 
 #include "common/atomic_file.h"
+#include "common/testing/temp_dir.h"
 
 namespace rumi {
 namespace {
@@ -16,20 +16,18 @@ namespace fs = std::filesystem;
 class GridFile : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("rumi_grid_file_test_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    tmp_.Create();
     for (int t = 0; t < 3; ++t)
       for (double y = -1; y <= 1; y += 0.02) grid_.AddRay({0, 0}, {2.0, y}, true);
   }
-  void TearDown() override { fs::remove_all(dir_); }
   std::string P(const std::string& name) const { return (dir_ / name).string(); }
   static OccupancyGridOptions Cells5cm() {
     OccupancyGridOptions o;
     o.resolution_m = 0.05;
     return o;
   }
-  fs::path dir_;
+  TempDir tmp_;
+  fs::path dir_ = tmp_.path();
   OccupancyGrid grid_{Cells5cm()};
 };
 

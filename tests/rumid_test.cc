@@ -13,6 +13,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -20,9 +21,9 @@
 
 #include "common/process/notify.h"
 #include "common/process/process_info.h"
-#include "common/process/subprocess.h"
 #include "ipc/segments.h"
 #include "manager/grid/grid_file.h"
+#include "common/testing/temp_dir.h"
 #include "tests/rumi_cli_util.h"
 
 namespace rumi {
@@ -37,9 +38,8 @@ const auto& Since = test::SecondsSince;
 class Daemon : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = fs::temp_directory_path() / ("rumi_daemon_test_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    tmp_ = std::make_unique<TempDir>();
+    dir_ = tmp_->Create();
     // 3 s of a smooth walk at QVGA: quick to render, tracked, no loss.
     seq_ = dir_ / "smooth";
     ASSERT_EQ(test::RunRumiLogged("synth " + seq_.string() + " --scenario smooth --frames 90 --size 320x240 --seed 4",
@@ -47,7 +47,7 @@ class Daemon : public ::testing::Test {
               0)
         << Slurp(dir_ / "synth.log");
   }
-  static void TearDownTestSuite() { fs::remove_all(dir_); }
+  static void TearDownTestSuite() { tmp_.reset(); }
 
   void TearDown() override {
     if (pid_ > 0) {
@@ -69,24 +69,15 @@ class Daemon : public ::testing::Test {
   fs::path State(const std::string& name) const { return dir_ / ("state_" + name); }
 
   pid_t Start(const std::vector<std::string>& args, const std::vector<std::string>& env, const std::string& log) {
-    SpawnOptions so;
-    so.argv = {Bin("rumid")};
-    so.argv.insert(so.argv.end(), args.begin(), args.end());
-    so.env = env;
-    so.log_path = log;
-    so.truncate_log = true;
-    std::string why;
-    const pid_t pid = SpawnChild(so, &why);
-    EXPECT_GT(pid, 0) << why;
-    return pid;
+    std::vector<std::string> argv = {Bin("rumid")};
+    argv.insert(argv.end(), args.begin(), args.end());
+    return test::Start(argv, log, env);
   }
   static int WaitExit(pid_t pid, double timeout_s) { return test::WaitExit(pid, timeout_s); }
   // Waits (at most 30 s) until the rumid of state folder `name` says it is running.
   bool WaitRunning(const std::string& name) const {
-    const auto t0 = Clock::now();
-    while (Since(t0) < 30 && Status(State(name)).value("state", std::string()) != "running")
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    return Status(State(name)).value("state", std::string()) == "running";
+    return test::WaitFor([&] { return Status(State(name)).value("state", std::string()) == "running"; }, 30,
+                         std::chrono::milliseconds(50));
   }
   static nlohmann::json Status(const fs::path& state) { return test::ReadStatus(state); }
   static pid_t ChildPid(const nlohmann::json& st, const std::string& name) {
@@ -96,9 +87,11 @@ class Daemon : public ::testing::Test {
     return test::StatusChild(st, name).value("ready", false);
   }
 
+  static std::unique_ptr<TempDir> tmp_;
   static fs::path dir_, seq_;
   pid_t pid_ = -1;
 };
+std::unique_ptr<TempDir> Daemon::tmp_;
 fs::path Daemon::dir_, Daemon::seq_;
 
 TEST_F(Daemon, NotifyProtocolWatchdogHangupAndABoundedStop) {
@@ -250,9 +243,7 @@ TEST_F(Daemon, ADeletedStateFolderIsMadeAndLockedAgain) {
   pid_ = Start({"--config", cfg}, {}, log);
   WaitRunning("gone");  // (the relock needs rumid's loop, not the children's readiness)
   fs::remove_all(State("gone"));
-  auto t0 = Clock::now();
-  while (Since(t0) < 10 && Slurp(log).find("locking it again") == std::string::npos)
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  test::WaitFor([&] { return Slurp(log).find("locking it again") != std::string::npos; }, 10, std::chrono::milliseconds(50));
   EXPECT_NE(Slurp(log).find("was deleted or replaced while rumid ran"), std::string::npos) << Slurp(log);
   EXPECT_TRUE(fs::exists(State("gone") / "rumid.lock"));
   const std::string log_b = (dir_ / "rumid_gone_b.log").string();
@@ -260,10 +251,7 @@ TEST_F(Daemon, ADeletedStateFolderIsMadeAndLockedAgain) {
   EXPECT_EQ(WaitExit(b, 20), 2);
   EXPECT_NE(Slurp(log_b).find("another rumid (pid " + std::to_string(pid_) + ") runs on"), std::string::npos)
       << Slurp(log_b);
-  t0 = Clock::now();
-  while (Since(t0) < 10 && !fs::exists(State("gone") / "status.json"))
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  EXPECT_TRUE(fs::exists(State("gone") / "status.json"));
+  EXPECT_TRUE(test::WaitFor([&] { return fs::exists(State("gone") / "status.json"); }, 10, std::chrono::milliseconds(50)));
   ::kill(pid_, SIGTERM);
   EXPECT_EQ(WaitExit(pid_, 20), 0) << Slurp(log);
   pid_ = -1;
@@ -307,17 +295,13 @@ TEST_F(Daemon, AFailedFinalSaveFailsRumid) {
   const std::string log = (dir_ / "rumid_save.log").string();
   pid_ = Start({"--config", cfg}, {}, log);
   WaitRunning("save");
-  auto t0 = Clock::now();
-  t0 = Clock::now();  // a save or two, then the map file cannot be replaced
-  while (Since(t0) < 30 && !fs::exists(State("save") / "map.rumi"))
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  // A save or two, then the map file cannot be replaced.
+  test::WaitFor([&] { return fs::exists(State("save") / "map.rumi"); }, 30, std::chrono::milliseconds(50));
   fs::remove(State("save") / "map.rumi");
   fs::create_directories(State("save") / "map.rumi" / "in_the_way");
   // The next save fails (the map is then unsaved at the stop, whatever comes).
   const fs::path manager_log = State("save") / "logs" / "rumi-manager.log";
-  t0 = Clock::now();
-  while (Since(t0) < 30 && Slurp(manager_log).find("[error]") == std::string::npos)
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  test::WaitFor([&] { return Slurp(manager_log).find("[error]") != std::string::npos; }, 30, std::chrono::milliseconds(50));
   ASSERT_NE(Slurp(manager_log).find("[error]"), std::string::npos) << Slurp(manager_log);
   ::kill(pid_, SIGTERM);
   EXPECT_EQ(WaitExit(pid_, 20), 1) << Slurp(log);

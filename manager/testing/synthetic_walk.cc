@@ -1,4 +1,4 @@
-#include "manager/synthetic_walk.h"
+#include "manager/testing/synthetic_walk.h"
 
 #include <cmath>
 

@@ -14,9 +14,9 @@
 #include <vector>
 
 #include "common/geometry.h"
-#include "common/test_temp_dir.h"
+#include "common/testing/temp_dir.h"
 #include "common/timestamp.h"
-#include "manager/synthetic_submaps.h"
+#include "manager/testing/synthetic_submaps.h"
 
 namespace rumi::testing {
 
@@ -91,7 +91,7 @@ inline Scenario MakeScenario(uint32_t seed = 3, double pixel_noise = 1.0, int nu
 }
 
 namespace fs = std::filesystem;
-using rumi::TempDir;  // common/test_temp_dir.h
+using rumi::TempDir;  // common/testing/temp_dir.h
 
 struct TumRow {
   Timestamp t;

@@ -1,4 +1,4 @@
-#include "manager/synthetic_submaps.h"
+#include "manager/testing/synthetic_submaps.h"
 
 #include <algorithm>
 #include <cmath>

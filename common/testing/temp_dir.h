@@ -1,8 +1,11 @@
 #pragma once
 // For tests only: a fresh folder under $TMPDIR (not created: a test may ask
-// that what it checks creates it), removed with everything in it at the end.
+// that what it checks creates it), removed with everything in it at the end,
+// unless RUMI_KEEP_TEST_DIR is set or Keep() was called (debugging: the logs
+// stay).
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
@@ -18,6 +21,7 @@ class TempDir {
     std::filesystem::remove_all(path_, ec);
   }
   ~TempDir() {
+    if (keep_ || std::getenv("RUMI_KEEP_TEST_DIR")) return;
     std::error_code ec;  // a folder that will not go must not end the test run
     std::filesystem::remove_all(path_, ec);
   }
@@ -26,9 +30,16 @@ class TempDir {
   const std::filesystem::path& path() const { return path_; }
   std::string str() const { return path_.string(); }
   std::string operator/(const std::string& f) const { return (path_ / f).string(); }
+  // Creates the folder; its path.
+  const std::filesystem::path& Create() const {
+    std::filesystem::create_directories(path_);
+    return path_;
+  }
+  void Keep() { keep_ = true; }
 
  private:
   std::filesystem::path path_;
+  bool keep_ = false;
 };
 
 }  // namespace rumi

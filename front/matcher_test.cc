@@ -1,0 +1,152 @@
+// The matcher's gates on hand-made descriptors (black box: front/matcher.h
+// only): the distance thresholds, the ratio test, mutual best, the search
+// window and the pyramid level.
+#include "front/matcher.h"
+
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <random>
+#include <utility>
+#include <vector>
+
+#include "front/testing/front_test_util.h"
+
+namespace rumi {
+namespace {
+
+using Pairs = std::vector<std::pair<int, int>>;
+
+// A random 32-byte ORB-like descriptor (1 x 32 CV_8U): two random ones are
+// about 128 bits apart, far beyond every gate.
+cv::Mat RandomDescriptor(std::mt19937* rng) {
+  cv::Mat d(1, 32, CV_8U);
+  for (int i = 0; i < 32; ++i) d.at<uint8_t>(0, i) = static_cast<uint8_t>((*rng)() & 0xff);
+  return d;
+}
+
+// `d` with its first `bits` bits flipped: exactly `bits` away from it.
+cv::Mat Flipped(const cv::Mat& d, int bits) {
+  cv::Mat out = d.clone();
+  for (int b = 0; b < bits; ++b) out.at<uint8_t>(0, b / 8) ^= static_cast<uint8_t>(1u << (b % 8));
+  return out;
+}
+
+cv::Mat Rows(const std::vector<cv::Mat>& rows) {
+  cv::Mat m;
+  cv::vconcat(rows, m);
+  return m;
+}
+
+// Features of a 640 x 480 image: keypoints at `at` (undistorted = detected,
+// angle 0), octaves `octave`, descriptor rows `desc`.
+std::shared_ptr<Features> MakeFeatures(const std::vector<Eigen::Vector2d>& at, const std::vector<int>& octave,
+                                       const std::vector<cv::Mat>& desc) {
+  auto f = std::make_shared<Features>();
+  f->width = 640;
+  f->height = 480;
+  f->max_x = 640;
+  f->max_y = 480;
+  for (size_t i = 0; i < at.size(); ++i) {
+    f->keypoints.emplace_back(static_cast<float>(at[i].x()), static_cast<float>(at[i].y()), 31.f, 0.f, 0.f,
+                              octave[i]);
+    f->un.push_back(at[i]);
+  }
+  f->descriptors = Rows(desc);
+  f->BuildGrid(64, 48);
+  return f;
+}
+
+TEST(MatchBruteForce, KeepsMutualBestWithinTheDistanceAndRatio) {
+  std::mt19937 rng(1);
+  const cv::Mat a = RandomDescriptor(&rng), b = RandomDescriptor(&rng), c = RandomDescriptor(&rng);
+  // a: 10 bits from its twin; b: 40 bits; c: nothing near.
+  const cv::Mat d1 = Rows({a, b, c});
+  const cv::Mat d2 = Rows({RandomDescriptor(&rng), Flipped(b, 40), Flipped(a, 10)});
+  EXPECT_EQ(MatchBruteForce(d1, d2, 50, 0.8), (Pairs{{0, 2}, {1, 1}}));
+  // The distance gate is inclusive: 40 passes a gate of 40, not one of 39.
+  EXPECT_EQ(MatchBruteForce(d1, d2, 40, 0.8), (Pairs{{0, 2}, {1, 1}}));
+  EXPECT_EQ(MatchBruteForce(d1, d2, 39, 0.8), (Pairs{{0, 2}}));
+}
+
+TEST(MatchBruteForce, RatioTestDropsAmbiguousMatches) {
+  std::mt19937 rng(2);
+  const cv::Mat a = RandomDescriptor(&rng);
+  // Two candidates 20 and 22 bits away: 20 < 0.8 * 22 fails, 20 < 0.95 * 22 holds.
+  const cv::Mat d1 = Rows({a});
+  const cv::Mat d2 = Rows({Flipped(a, 20), Flipped(a, 22)});
+  EXPECT_TRUE(MatchBruteForce(d1, d2, 100, 0.8).empty());
+  EXPECT_EQ(MatchBruteForce(d1, d2, 100, 0.95), (Pairs{{0, 0}}));
+  // A clear winner (10 against 30 bits) passes the strict ratio.
+  const cv::Mat d3 = Rows({Flipped(a, 30), Flipped(a, 10)});
+  EXPECT_EQ(MatchBruteForce(d1, d3, 100, 0.8), (Pairs{{0, 1}}));
+}
+
+TEST(MatchBruteForce, OnlyTheClosestOfTwoRivalsGetsTheShared) {
+  std::mt19937 rng(3);
+  const cv::Mat a = RandomDescriptor(&rng);
+  // Rows 0 and 1 of d1 both have d2's row 0 as their best: row 1 (5 bits) wins.
+  const cv::Mat d1 = Rows({Flipped(a, 15), Flipped(a, 5)});
+  const cv::Mat d2 = Rows({a, RandomDescriptor(&rng)});
+  EXPECT_EQ(MatchBruteForce(d1, d2, 50, 0.8), (Pairs{{1, 0}}));
+  EXPECT_TRUE(MatchBruteForce(cv::Mat(0, 32, CV_8U), d2, 50, 0.8).empty());
+}
+
+TEST(SearchForInitialization, DistanceGateRatioWindowAndLevel) {
+  std::mt19937 rng(4);
+  std::vector<cv::Mat> desc1;
+  for (int i = 0; i < 6; ++i) desc1.push_back(RandomDescriptor(&rng));
+  const std::vector<Eigen::Vector2d> at1 = {{100, 100}, {200, 100}, {300, 100}, {400, 100}, {500, 100}, {100, 300}};
+  const auto f1 = MakeFeatures(at1, {0, 0, 0, 0, 0, 0}, desc1);
+  // In image 2, each feature of image 1 finds:
+  //   0: its twin 10 bits away, 3 px off             -> matched
+  //   1: its twin 50 bits away (the gate, kDescLow)  -> matched
+  //   2: its twin 51 bits away                       -> not
+  //   3: two twins 20 and 21 bits away (ratio 0.9)   -> not
+  //   4: its twin 0 bits away but 30 px off          -> not (outside the window)
+  //   5: its twin 0 bits away at another octave      -> not
+  const std::vector<Eigen::Vector2d> at2 = {{103, 100}, {200, 104}, {300, 100}, {398, 100},
+                                            {402, 100}, {530, 100}, {100, 300}};
+  const auto f2 = MakeFeatures(at2, {0, 0, 0, 0, 0, 0, 1},
+                               {Flipped(desc1[0], 10), Flipped(desc1[1], 50), Flipped(desc1[2], 51),
+                                Flipped(desc1[3], 20), Flipped(desc1[3], 21), desc1[4], desc1[5]});
+  std::vector<Eigen::Vector2d> prev = at1;
+  std::vector<int> m12;
+  EXPECT_EQ(SearchForInitialization(*f1, *f2, &prev, 10, &m12), 2);
+  EXPECT_EQ(m12, (std::vector<int>{0, 1, -1, -1, -1, -1}));
+  // A match moves its search centre to where it was found; the rest stay.
+  EXPECT_EQ(prev[0], at2[0]);
+  EXPECT_EQ(prev[1], at2[1]);
+  for (int i = 2; i < 6; ++i) EXPECT_EQ(prev[i], at1[i]) << i;
+  // A wider window reaches feature 4's twin.
+  prev = at1;
+  EXPECT_EQ(SearchForInitialization(*f1, *f2, &prev, 40, &m12), 3);
+  EXPECT_EQ(m12[4], 5);
+}
+
+// The tracking gate (kDescHigh): the last frame's point projected into the
+// current frame takes the nearest feature when it is at most 100 bits away.
+TEST(SearchByProjection, TakesTheFeatureUnderTheProjectionWithinTheTrackingGate) {
+  const PinholeCamera cam(QvgaCamera());  // principal point (159.5, 119.5)
+  const ScalePyramid pyr(8, 1.2);
+  std::mt19937 rng(5);
+  const cv::Mat d = RandomDescriptor(&rng);
+  Landmark p;
+  p.pos = Eigen::Vector3d(0, 0, 5);  // projects to the principal point at identity
+  p.descriptor = d;
+  TrackFrame last;
+  last.f = MakeFeatures({{159.5, 119.5}}, {0}, {d});
+  last.Reset(1);
+  last.points[0] = &p;
+  for (const auto& [bits, matched] : {std::make_pair(kDescHigh, 1), std::make_pair(kDescHigh + 1, 0)}) {
+    TrackFrame cur;
+    cur.f = MakeFeatures({{160.5, 119.5}, {300, 200}}, {0, 0}, {Flipped(d, bits), d});
+    cur.Reset(2);
+    EXPECT_EQ(SearchByProjection(&cur, last, cam, pyr, 5, false), matched) << bits << " bits";
+    EXPECT_EQ(cur.points[0], matched ? &p : nullptr) << bits << " bits";
+    EXPECT_EQ(cur.points[1], nullptr) << "outside the window";
+  }
+}
+
+}  // namespace
+}  // namespace rumi
