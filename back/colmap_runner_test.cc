@@ -7,7 +7,7 @@
 
 #include <fstream>
 
-#include "common/test_temp_dir.h"
+#include "common/testing/temp_dir.h"
 
 namespace rumi {
 namespace {

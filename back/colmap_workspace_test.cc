@@ -6,7 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "back/model_to_submap.h"
-#include "common/test_temp_dir.h"
+#include "common/testing/temp_dir.h"
 
 namespace fs = std::filesystem;
 

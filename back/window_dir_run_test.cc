@@ -8,7 +8,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "common/process/exit_codes.h"
-#include "common/test_temp_dir.h"
+#include "common/testing/temp_dir.h"
 
 namespace fs = std::filesystem;
 

@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <random>
+
+#include <opencv2/core.hpp>
 
 namespace rumi {
 namespace {
@@ -26,6 +29,35 @@ std::vector<std::pair<int, int>> Match(const std::vector<Row>& a, const std::vec
                                        const DescriptorMatchOptions& o) {
   const std::vector<uint8_t> pa = Pack(a), pb = Pack(b);
   return MatchDescriptors(pa.data(), a.size(), pb.data(), b.size(), o);
+}
+
+// A random 32-byte ORB-like descriptor (1 x 32 CV_8U): two random ones are
+// about 128 bits apart, far beyond every gate.
+cv::Mat RandomDescriptor(std::mt19937* rng) {
+  cv::Mat d(1, 32, CV_8U);
+  for (int i = 0; i < 32; ++i) d.at<uint8_t>(0, i) = static_cast<uint8_t>((*rng)() & 0xff);
+  return d;
+}
+
+// `d` with its first `bits` bits flipped: exactly `bits` away from it.
+cv::Mat Flipped(const cv::Mat& d, int bits) {
+  cv::Mat out = d.clone();
+  for (int b = 0; b < bits; ++b) out.at<uint8_t>(0, b / 8) ^= static_cast<uint8_t>(1u << (b % 8));
+  return out;
+}
+
+cv::Mat Rows(const std::vector<cv::Mat>& rows) {
+  cv::Mat m;
+  cv::vconcat(rows, m);
+  return m;
+}
+
+using Pairs = std::vector<std::pair<int, int>>;
+
+// Relocalisation's use: mutual best within the distance and the ratio.
+Pairs BruteForce(const cv::Mat& d1, const cv::Mat& d2, int max_distance, double ratio) {
+  return MatchDescriptors(d1.ptr<uint8_t>(), size_t(d1.rows), d2.ptr<uint8_t>(), size_t(d2.rows),
+                          {max_distance, ratio, /*mutual=*/true});
 }
 
 TEST(NearestTwo, KeepsTheTwoNearestAndTheEarlierOnATie) {
@@ -90,6 +122,41 @@ TEST(MatchDescriptors, OneToOneTheCloserClaimWins) {
     o.mutual = mutual;
     EXPECT_EQ(Match(a, b, o), (std::vector<std::pair<int, int>>{{1, 0}, {2, 1}})) << mutual;
   }
+}
+
+TEST(MatchDescriptorsMutual, KeepsMutualBestWithinTheDistanceAndRatio) {
+  std::mt19937 rng(1);
+  const cv::Mat a = RandomDescriptor(&rng), b = RandomDescriptor(&rng), c = RandomDescriptor(&rng);
+  // a: 10 bits from its twin; b: 40 bits; c: nothing near.
+  const cv::Mat d1 = Rows({a, b, c});
+  const cv::Mat d2 = Rows({RandomDescriptor(&rng), Flipped(b, 40), Flipped(a, 10)});
+  EXPECT_EQ(BruteForce(d1, d2, 50, 0.8), (Pairs{{0, 2}, {1, 1}}));
+  // The distance gate is inclusive: 40 passes a gate of 40, not one of 39.
+  EXPECT_EQ(BruteForce(d1, d2, 40, 0.8), (Pairs{{0, 2}, {1, 1}}));
+  EXPECT_EQ(BruteForce(d1, d2, 39, 0.8), (Pairs{{0, 2}}));
+}
+
+TEST(MatchDescriptorsMutual, RatioTestDropsAmbiguousMatches) {
+  std::mt19937 rng(2);
+  const cv::Mat a = RandomDescriptor(&rng);
+  // Two candidates 20 and 22 bits away: 20 < 0.8 * 22 fails, 20 < 0.95 * 22 holds.
+  const cv::Mat d1 = Rows({a});
+  const cv::Mat d2 = Rows({Flipped(a, 20), Flipped(a, 22)});
+  EXPECT_TRUE(BruteForce(d1, d2, 100, 0.8).empty());
+  EXPECT_EQ(BruteForce(d1, d2, 100, 0.95), (Pairs{{0, 0}}));
+  // A clear winner (10 against 30 bits) passes the strict ratio.
+  const cv::Mat d3 = Rows({Flipped(a, 30), Flipped(a, 10)});
+  EXPECT_EQ(BruteForce(d1, d3, 100, 0.8), (Pairs{{0, 1}}));
+}
+
+TEST(MatchDescriptorsMutual, OnlyTheClosestOfTwoRivalsGetsTheShared) {
+  std::mt19937 rng(3);
+  const cv::Mat a = RandomDescriptor(&rng);
+  // Rows 0 and 1 of d1 both have d2's row 0 as their best: row 1 (5 bits) wins.
+  const cv::Mat d1 = Rows({Flipped(a, 15), Flipped(a, 5)});
+  const cv::Mat d2 = Rows({a, RandomDescriptor(&rng)});
+  EXPECT_EQ(BruteForce(d1, d2, 50, 0.8), (Pairs{{1, 0}}));
+  EXPECT_TRUE(BruteForce(cv::Mat(0, 32, CV_8U), d2, 50, 0.8).empty());
 }
 
 }  // namespace

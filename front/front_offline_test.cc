@@ -9,7 +9,7 @@
 
 #include "common/process/exit_codes.h"
 #include "common/synth/synthetic_sequence.h"
-#include "common/test_temp_dir.h"
+#include "common/testing/temp_dir.h"
 #include "common/trajectory.h"
 
 namespace rumi {

@@ -1,6 +1,6 @@
 // The matcher's gates on hand-made descriptors (black box: front/matcher.h
-// only): the distance thresholds, the ratio test, mutual best, the search
-// window and the pyramid level.
+// only): the distance thresholds, the ratio test, the search window and the
+// pyramid level (the brute-force matcher: common/descriptor_match_test.cc).
 #include "front/matcher.h"
 
 #include <gtest/gtest.h>
@@ -55,41 +55,6 @@ std::shared_ptr<Features> MakeFeatures(const std::vector<Eigen::Vector2d>& at, c
   f->descriptors = Rows(desc);
   f->BuildGrid(64, 48);
   return f;
-}
-
-TEST(MatchBruteForce, KeepsMutualBestWithinTheDistanceAndRatio) {
-  std::mt19937 rng(1);
-  const cv::Mat a = RandomDescriptor(&rng), b = RandomDescriptor(&rng), c = RandomDescriptor(&rng);
-  // a: 10 bits from its twin; b: 40 bits; c: nothing near.
-  const cv::Mat d1 = Rows({a, b, c});
-  const cv::Mat d2 = Rows({RandomDescriptor(&rng), Flipped(b, 40), Flipped(a, 10)});
-  EXPECT_EQ(MatchBruteForce(d1, d2, 50, 0.8), (Pairs{{0, 2}, {1, 1}}));
-  // The distance gate is inclusive: 40 passes a gate of 40, not one of 39.
-  EXPECT_EQ(MatchBruteForce(d1, d2, 40, 0.8), (Pairs{{0, 2}, {1, 1}}));
-  EXPECT_EQ(MatchBruteForce(d1, d2, 39, 0.8), (Pairs{{0, 2}}));
-}
-
-TEST(MatchBruteForce, RatioTestDropsAmbiguousMatches) {
-  std::mt19937 rng(2);
-  const cv::Mat a = RandomDescriptor(&rng);
-  // Two candidates 20 and 22 bits away: 20 < 0.8 * 22 fails, 20 < 0.95 * 22 holds.
-  const cv::Mat d1 = Rows({a});
-  const cv::Mat d2 = Rows({Flipped(a, 20), Flipped(a, 22)});
-  EXPECT_TRUE(MatchBruteForce(d1, d2, 100, 0.8).empty());
-  EXPECT_EQ(MatchBruteForce(d1, d2, 100, 0.95), (Pairs{{0, 0}}));
-  // A clear winner (10 against 30 bits) passes the strict ratio.
-  const cv::Mat d3 = Rows({Flipped(a, 30), Flipped(a, 10)});
-  EXPECT_EQ(MatchBruteForce(d1, d3, 100, 0.8), (Pairs{{0, 1}}));
-}
-
-TEST(MatchBruteForce, OnlyTheClosestOfTwoRivalsGetsTheShared) {
-  std::mt19937 rng(3);
-  const cv::Mat a = RandomDescriptor(&rng);
-  // Rows 0 and 1 of d1 both have d2's row 0 as their best: row 1 (5 bits) wins.
-  const cv::Mat d1 = Rows({Flipped(a, 15), Flipped(a, 5)});
-  const cv::Mat d2 = Rows({a, RandomDescriptor(&rng)});
-  EXPECT_EQ(MatchBruteForce(d1, d2, 50, 0.8), (Pairs{{1, 0}}));
-  EXPECT_TRUE(MatchBruteForce(cv::Mat(0, 32, CV_8U), d2, 50, 0.8).empty());
 }
 
 TEST(SearchForInitialization, DistanceGateRatioWindowAndLevel) {

@@ -8,7 +8,7 @@
 
 #include "common/trajectory.h"
 #include "manager/map_file.h"
-#include "manager/test_scenario.h"
+#include "manager/testing/test_scenario.h"
 
 namespace rumi {
 namespace {

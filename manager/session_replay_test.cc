@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "manager/test_scenario.h"
+#include "manager/testing/test_scenario.h"
 
 namespace rumi {
 namespace {
