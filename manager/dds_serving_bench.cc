@@ -48,6 +48,9 @@ class Serving {
               "--timeout", "3600", "pose", "--follow"};
     c.log_path = "/dev/null";
     client_ = SpawnChild(c, why);
+    // Without its client the pass measures nothing (and kill(-1, ...) would
+    // signal every process the user may signal).
+    if (client_ <= 0) return false;
     std::this_thread::sleep_for(std::chrono::seconds(2));  // attached and reading
     if (stop_client) ::kill(client_, SIGSTOP);
     return true;
