@@ -8,11 +8,12 @@
 #include <tuple>
 #include <unordered_map>
 
-#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
 
 #include "common/descriptor_match.h"
 #include "common/logging.h"
 #include "common/orb_extractor.h"
+#include "common/pnp.h"
 #include "common/stats.h"
 #include "common/timestamp.h"
 #include "manager/front_point_search.h"
@@ -115,29 +116,15 @@ bool Verify(const Submap& Q, const Prepared& pq, int q, const Submap& M, const P
     obj.emplace_back(float(X.x()), float(X.y()), float(X.z()));
     img.emplace_back(uq[size_t(matches[i].first)].x(), uq[size_t(matches[i].first)].y());
   }
-  const CameraIntrinsics& K = Q.camera;
-  const cv::Mat Kcv = (cv::Mat_<double>(3, 3) << K.fx, 0, K.cx, 0, K.fy, K.cy, 0, 0, 1);
-  cv::Mat R0(3, 3, CV_64F), rvec, tvec(3, 1, CV_64F);
-  const Eigen::Matrix3d Rg = guess.R();
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) R0.at<double>(r, c) = Rg(r, c);
-    tvec.at<double>(r) = guess.translation()(r);
-  }
-  cv::Rodrigues(R0, rvec);
   std::vector<int> pnp_inliers;
+  Se3 T_qM_pnp;
   // Keypoints are undistorted already: the pinhole K, no distortion.
-  if (!cv::solvePnPRansac(obj, img, Kcv, cv::noArray(), rvec, tvec, /*useExtrinsicGuess=*/true, 100,
-                          float(o.loop_pnp_px), 0.99, pnp_inliers, cv::SOLVEPNP_ITERATIVE) ||
+  if (!PnpRansacFromGuess(obj, img, Q.camera, guess.R(), guess.translation(), o.loop_pnp_px, &T_qM_pnp, &pnp_inliers) ||
       int(pnp_inliers.size()) < o.loop_min_inliers)
     return fail("too few PnP inliers (" + std::to_string(pnp_inliers.size()) + " of " + std::to_string(obj.size()) +
                 ")");
   out->inliers = int(pnp_inliers.size());
-  cv::Mat Rcv;
-  cv::Rodrigues(rvec, Rcv);
-  Eigen::Matrix3d R;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) R(r, c) = Rcv.at<double>(r, c);
-  const Sim3 T_qM(1.0, Eigen::Quaterniond(R), Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)));
+  const Sim3 T_qM(1.0, T_qM_pnp.rotation(), T_qM_pnp.translation());
   out->query_submap = {Q.source, Q.id};
   out->match_submap = {M.source, M.id};
   out->query_keyframe = kq.id;

@@ -8,8 +8,9 @@
 #include <tuple>
 #include <unordered_map>
 
-#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
 
+#include "common/pnp.h"
 #include "common/timestamp.h"
 #include "manager/front_point_search.h"
 #include "manager/merge_memo.h"
@@ -306,27 +307,12 @@ class RevisitFuser {
       obj.emplace_back(float(X.x()), float(X.y()), float(X.z()));
       img.emplace_back(kb.keypoints[size_t(kp)].x(), kb.keypoints[size_t(kp)].y());
     }
-    const CameraIntrinsics& K = map_.submap(b.submap).camera;
-    const cv::Mat Kcv = (cv::Mat_<double>(3, 3) << K.fx, 0, K.cx, 0, K.fy, K.cy, 0, 0, 1);
-    const Eigen::Matrix3d R0 = guess.rotation().toRotationMatrix();
-    cv::Mat R0cv(3, 3, CV_64F), rvec, tvec(3, 1, CV_64F);
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) R0cv.at<double>(r, c) = R0(r, c);
-      tvec.at<double>(r) = guess.translation()(r);
-    }
-    cv::Rodrigues(R0cv, rvec);
     std::vector<int> inliers;
-    // Keypoints are undistorted already: the pinhole K, no distortion.
-    if (!cv::solvePnPRansac(obj, img, Kcv, cv::noArray(), rvec, tvec, /*useExtrinsicGuess=*/true, 100,
-                            float(o_.front_search_px), 0.99, inliers, cv::SOLVEPNP_ITERATIVE) ||
+    Se3 T_cw;
+    if (!PnpRansacFromGuess(obj, img, map_.submap(b.submap).camera, guess.rotation().toRotationMatrix(),
+                            guess.translation(), o_.front_search_px, &T_cw, &inliers) ||
         int(inliers.size()) < o_.revisit_min_pnp_inliers)
       return false;
-    cv::Mat Rcv;
-    cv::Rodrigues(rvec, Rcv);
-    Eigen::Matrix3d R;
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) R(r, c) = Rcv.at<double>(r, c);
-    const Se3 T_cw(R, Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)));
     // A consensus on a wrong pose (repeated texture) moves the camera far: a
     // right correction stays within the depth check's tolerance of the guess
     // and turns the axis less than neighbours may differ.

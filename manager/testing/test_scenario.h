@@ -16,6 +16,7 @@
 #include "common/geometry.h"
 #include "common/testing/temp_dir.h"
 #include "common/timestamp.h"
+#include "common/trajectory.h"
 #include "manager/testing/synthetic_submaps.h"
 
 namespace rumi::testing {
@@ -99,22 +100,10 @@ struct TumRow {
   Eigen::Quaterniond q;
 };
 
+// A TUM trajectory the manager wrote, by the one trajectory reader.
 inline std::vector<TumRow> ReadTum(const std::string& path) {
   std::vector<TumRow> rows;
-  std::ifstream in(path);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;  // the TUM writer's header
-    std::istringstream ss(line);
-    std::string t;
-    double v[7];
-    ss >> t >> v[0] >> v[1] >> v[2] >> v[3] >> v[4] >> v[5] >> v[6];
-    TumRow r;
-    EXPECT_TRUE(ParseSecondsToNs(t, &r.t)) << t;
-    r.p = {v[0], v[1], v[2]};
-    r.q = Eigen::Quaterniond(v[6], v[3], v[4], v[5]);
-    rows.push_back(r);
-  }
+  for (const StampedPose& p : ReadTumTrajectory(path)) rows.push_back({p.t, p.T_wc.translation(), p.T_wc.rotation()});
   return rows;
 }
 
