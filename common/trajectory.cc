@@ -153,9 +153,12 @@ TrajectoryFormat DetectTrajectoryFormat(const std::string& path) {
   TrajectoryFormat format = TrajectoryFormat::kTum;
   ForEachDataLine(in, [&](int line, const std::string& s) {  // the first data line tells
     found = true;
+    if (s.find(',') != std::string::npos) {
+      format = TrajectoryFormat::kEuroc;
+      return false;
+    }
     const size_t n = SplitFields(s, false).size();
-    if (s.find(',') != std::string::npos) format = TrajectoryFormat::kEuroc;
-    else if (n == 12) format = TrajectoryFormat::kKitti;
+    if (n == 12) format = TrajectoryFormat::kKitti;
     else if (n == 8) format = TrajectoryFormat::kTum;
     else
       Fail(path, line,

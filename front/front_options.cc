@@ -85,7 +85,7 @@ const OptionSpec<FrontOptions>& FrontOptions::Spec() {
     s->Number("kf_tracked_ratio", &O::kf_tracked_ratio, Above(0.0), AtMost(1.0), "keyframe when tracked < ratio x ref");
     s->Number("kf_weak_ratio", &O::kf_weak_ratio, AtLeast(0.0), AtMost(1.0),
               "keyframe when inliers < ratio x their peak since the last one");
-    s->Flag("local_mapping_thread", &O::local_mapping_thread, "false: run mapping inline (deterministic, tests)");
+    s->Flag("local_mapping_thread", &O::local_mapping_thread, "false: run mapping inline (tests; repeatable when local_ba_max_time_s never cuts)");
     s->Number("triangulation_neighbours", &O::triangulation_neighbours, AtLeast(1), AtMost(100),
               "keyframes to triangulate with");
     s->Number("local_ba_iterations", &O::local_ba_iterations, AtLeast(0), AtMost(1000), "local BA iterations");

@@ -22,7 +22,7 @@ void AddFrontFlags(CLI::App* app, FrontCommandLine* f) {
       ->check(CLI::Range(1, 100000));
   app->add_option("--log,--log-level", f->log_level, "trace|debug|info|warn|error|off (overrides the config)");
   app->add_flag("--no-pace", f->no_pace, "feed frames as fast as possible instead of at capture rate");
-  app->add_flag("--sync", f->sync, "run local mapping inline (deterministic; not realtime)");
+  app->add_flag("--sync", f->sync, "run local mapping inline (not realtime; repeatable when front.local_ba_max_time_s never cuts)");
   // Process mode (docs/eval.md): the configured source (or --dataset),
   // windows and submaps over shared memory.
   app->add_option("--instance", f->instance, "ipc instance: run as the pipeline's front (docs/eval.md); needs --out");

@@ -184,6 +184,7 @@ class Daemon {
     facts_.front = front_;
     facts_.back = back_;
     facts_.manager = manager_;
+    stall_killed_.assign(sup_.size(), -1);
     watchdog_ = sd_watchdog_enabled(0, &watchdog_usec_) > 0 && watchdog_usec_ > 0;
   }
 
@@ -260,7 +261,6 @@ class Daemon {
   // nothing: killed, it is restarted as after a crash (a manager stopped for
   // 90 s stayed "running" and only systemd's watchdog would act).
   void KillStalled() {
-    stall_killed_.resize(sup_.size(), -1);
     for (const auto& [i, stall_s] : {std::pair<int, double>{front_, d_.front_stall_s}, {back_, d_.back_stall_s},
                                      {manager_, d_.manager_stall_s}}) {
       const ChildInfo& in = sup_.info(i);
