@@ -55,7 +55,7 @@ int TrackLocalMap(TrackFrame* cur, Map* map, KeyFrame** ref, bool wide, const Fr
                   const PinholeCamera& cam, const ScalePyramid& pyr) {
   const int64_t tag = cur->id;
   // Keyframes sharing points with the frame, by votes.
-  std::map<KeyFrame*, int> votes;
+  std::map<KeyFrame*, int, ById> votes;
   for (size_t i = 0; i < cur->points.size(); ++i) {
     Landmark* p = cur->points[i];
     if (!p || p->bad || cur->outlier[i]) continue;

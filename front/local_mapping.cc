@@ -239,7 +239,7 @@ void LocalMapper::FuseNeighbours(KeyFrame* kf) {
   for (KeyFrame* k : targets)
     for (Landmark* p : k->points)
       if (p && !p->bad && !p->obs.count(kf)) theirs.push_back(p);
-  std::sort(theirs.begin(), theirs.end());
+  std::sort(theirs.begin(), theirs.end(), ById());
   theirs.erase(std::unique(theirs.begin(), theirs.end()), theirs.end());
   Fuse(kf, theirs, cam_, pyr_, 3.0);
   for (Landmark* p : kf->points) {

@@ -221,13 +221,13 @@ void Map::UpdateNormalAndDepth(Landmark* p, const ScalePyramid& pyr) {
 }
 
 void Map::ComputeDescriptor(Landmark* p) {
-  // Representative descriptor: the one with the least median distance to the rest.
+  // Representative descriptor: the one with the least median distance to the
+  // rest, among the 12 newest views. The newest views look most like the next
+  // frames (a turn changes a point's appearance); taking the oldest ones lost
+  // matches in turns and froze the translation (docs/results/2026-11-29-front-order.md).
   std::vector<cv::Mat> d;
-  for (auto& [kf, idx] : p->obs) {
-    if (kf->bad) continue;
-    d.push_back(kf->f->descriptors.row(idx));
-    if (d.size() >= 12) break;
-  }
+  for (auto it = p->obs.rbegin(); it != p->obs.rend() && d.size() < 12; ++it)
+    if (!it->first->bad) d.push_back(it->first->f->descriptors.row(it->second));
   if (d.empty()) return;
   const size_t n = d.size();
   int best = 0, best_med = 1 << 30;
@@ -244,7 +244,7 @@ void Map::ComputeDescriptor(Landmark* p) {
 }
 
 void Map::UpdateConnections(KeyFrame* kf) {
-  std::map<KeyFrame*, int> counts;
+  std::map<KeyFrame*, int, ById> counts;
   for (Landmark* p : kf->points) {
     if (!p || p->bad) continue;
     for (auto& [other, idx] : p->obs)
@@ -278,7 +278,7 @@ Submap Map::Export(int64_t submap_id, const PinholeCamera& cam) const {
   s.id = submap_id;
   s.source = SubmapSource::kFront;
   s.camera = {cam.width(), cam.height(), cam.fx(), cam.fy(), cam.cx(), cam.cy()};
-  std::map<const Landmark*, bool> exported;
+  std::map<const Landmark*, bool, ById> exported;
   for (const auto& [id, p] : points) exported[p.get()] = !p->bad && p->obs.size() >= 2;
   for (const auto& [id, kf] : keyframes) {
     if (kf->bad) continue;

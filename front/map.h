@@ -23,6 +23,14 @@ namespace rumi {
 struct Landmark;
 struct KeyFrame;
 
+// Orders keyframe and point pointers by id (creation order), never by heap
+// address: containers keyed by pointer then iterate the same way in every run
+// and build, so the front's result does not depend on the allocator.
+struct ById {
+  template <class T>
+  bool operator()(const T* a, const T* b) const { return a->id < b->id; }
+};
+
 // Immutable features of one image.
 struct Features {
   int width = 0, height = 0;
@@ -73,7 +81,7 @@ struct Landmark {
   int64_t id = -1;
   Eigen::Vector3d pos = Eigen::Vector3d::Zero();
   cv::Mat descriptor;                 // 1 x 32
-  std::map<KeyFrame*, int> obs;       // keyframe -> keypoint index
+  std::map<KeyFrame*, int, ById> obs;      // keyframe -> keypoint index
   KeyFrame* ref_kf = nullptr;
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // mean viewing direction
   double min_dist = 0, max_dist = 0;  // scale-invariance range
@@ -95,7 +103,7 @@ struct KeyFrame {
   Se3 T_cw;
   std::shared_ptr<const Features> f;
   std::vector<Landmark*> points;      // per keypoint, nullptr for none
-  std::map<KeyFrame*, int> covis;     // covisibility weights (shared points)
+  std::map<KeyFrame*, int, ById> covis;    // covisibility weights (shared points)
   std::vector<KeyFrame*> ordered_covis;
   bool bad = false;
   int64_t bad_seen_at = -1;           // Map::frame_counter when PurgeCulled first saw it bad

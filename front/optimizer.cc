@@ -126,7 +126,7 @@ void CollectLocalBa(KeyFrame* kf, int max_local, int max_fixed, LocalBaProblem* 
     n->ba_local_for = tag;
     pb->local.push_back(n);
   }
-  std::map<Landmark*, int> pidx;
+  std::map<Landmark*, int, ById> pidx;
   for (KeyFrame* k : pb->local)
     for (Landmark* p : k->points)
       if (p && !p->bad && !pidx.count(p)) { pidx[p] = static_cast<int>(pb->points.size()); pb->points.push_back(p); }
@@ -150,7 +150,7 @@ void CollectLocalBa(KeyFrame* kf, int max_local, int max_fixed, LocalBaProblem* 
     pb->local.erase(oldest);
     ++num_fixed;
   }
-  std::map<KeyFrame*, int> kidx;
+  std::map<KeyFrame*, int, ById> kidx;
   for (KeyFrame* k : pb->local) { kidx[k] = static_cast<int>(pb->q.size()); pb->q.push_back(k->T_cw.rotation().coeffs()); pb->t.push_back(k->T_cw.translation()); }
   for (KeyFrame* k : pb->fixed) { kidx[k] = static_cast<int>(pb->q.size()); pb->q.push_back(k->T_cw.rotation().coeffs()); pb->t.push_back(k->T_cw.translation()); }
   for (Landmark* p : pb->points) {
@@ -237,8 +237,8 @@ void GlobalBa(Map* map, const PinholeCamera& cam, const ScalePyramid& pyr, int i
   if (all.size() != pb.local.size()) {  // disconnected ones: include them too
     pb = LocalBaProblem();
     pb.local = all;
-    std::map<Landmark*, int> pidx;
-    std::map<KeyFrame*, int> kidx;
+    std::map<Landmark*, int, ById> pidx;
+    std::map<KeyFrame*, int, ById> kidx;
     for (KeyFrame* k : all) { kidx[k] = static_cast<int>(pb.q.size()); pb.q.push_back(k->T_cw.rotation().coeffs()); pb.t.push_back(k->T_cw.translation()); }
     for (auto& [id, p] : map->points) {
       if (p->bad) continue;
