@@ -1,0 +1,83 @@
+#pragma once
+// What every open page is shown, held once: the feeds (the state folder,
+// the manager over DDS) hand each new map, status and pose here once, and
+// the hub turns them into the page's JSON and each stream's messages. Many
+// tabs cost one snapshot per update, not one per tab. Nothing here blocks a
+// feed: each stream has its own bounded queue (ClientQueue).
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "apps/view/client_queue.h"
+#include "apps/view/top_view.h"
+#include "apps/view/view_options.h"
+#include "common/map_server_grid.h"
+#include "common/run_metrics.h"
+#include "ipc/dds/map_server.h"
+#include "ipc/dds/map_snapshot.h"
+
+namespace rumi {
+
+struct ViewHubCounters {
+  int64_t map_updates = 0, delta_bytes = 0, pose_messages = 0, status_messages = 0;
+  int64_t clients = 0, refused_clients = 0, dropped = 0;  // dropped: of streams already closed
+};
+
+class ViewHub {
+ public:
+  explicit ViewHub(const ViewOptions& o) : options_(o), map_json_(TopViewDelta(TopView(), TopView()).dump()) {}
+
+  // A new map (and the grid with it; grid.ok false: none). Streams get the
+  // delta from the previous map.
+  void SetMap(const MapSnapshot& map, const SnapshotGrid& grid);
+  // status.json as rumid writes it ({} without a daemon).
+  void SetStatus(const nlohmann::json& status);
+  // front_frames.txt of a finished session (the timeline of a folder).
+  void SetFrames(const std::vector<FrontFrameLine>& frames);
+  // The live pose; at most view.pose_hz of them go out.
+  void AddPose(const LivePose& pose);
+
+  // GET /api/map: the whole top view (TopViewDelta from nothing).
+  std::string MapJson() const;
+  // GET /api/state: status, the timeline so far and the pose trail.
+  std::string StateJson() const;
+  // GET /api/grid: resolution, origin, size; GET /api/grid.pgm: the cells.
+  std::string GridJson() const;
+  std::string GridPgm() const;  // "" without a grid
+
+  // A new live stream; nullptr with *why when view.max_clients are open or
+  // the hub was closed.
+  std::shared_ptr<ClientQueue> Subscribe(std::string* why);
+  void Unsubscribe(const std::shared_ptr<ClientQueue>& q);
+  // Ends every stream after what it holds, and takes no new one (the server
+  // stops; a page's EventSource then stops asking).
+  void CloseAll();
+  ViewHubCounters counters() const;
+
+ private:
+  void Broadcast(const std::string& event, const std::string& data);  // mutex_ held
+  std::string GridMeta() const;                                       // mutex_ held
+
+  const ViewOptions options_;
+  mutable std::mutex mutex_;
+  TopView view_;
+  std::string map_json_;
+  SnapshotGrid grid_;
+  std::optional<Sim3> S_gm_;
+  nlohmann::json status_ = nlohmann::json::object();
+  nlohmann::json timeline_ = nlohmann::json::array();  // [t_s, state] at each change of state
+  nlohmann::json trail_ = nlohmann::json::array();     // [t_s, x, y, yaw] of the recent poses
+  double last_pose_s_ = -1e300;
+  std::vector<std::shared_ptr<ClientQueue>> clients_;
+  bool closed_ = false;
+  ViewHubCounters counters_;
+};
+
+// One server-sent event: "event: NAME\ndata: DATA\n\n".
+std::string SseMessage(const std::string& event, const std::string& data);
+
+}  // namespace rumi
