@@ -218,7 +218,6 @@ function drawTimeline() {
 }
 
 // ---- the daemon panel ----
-function fmtBytes(b) { return b > 1 << 30 ? (b / (1 << 30)).toFixed(1) + ' GiB' : (b / (1 << 20)).toFixed(0) + ' MiB'; }
 function details(title, obj, keys) {
   if (!obj || typeof obj !== 'object') return null;
   const dl = document.createElement('dl');
@@ -247,7 +246,7 @@ function drawDaemon() {
   body.textContent = '';
   for (const c of st.children || []) {
     const tr = body.insertRow();
-    for (const v of [c.name, c.state, c.restarts, c.rss_bytes ? fmtBytes(c.rss_bytes) : '', c.uptime_s ? c.uptime_s.toFixed(0) + ' s' : ''])
+    for (const v of [c.name, c.state, c.restarts, c.rss_mib ? c.rss_mib.toFixed(0) + ' MiB' : '', c.uptime_s ? c.uptime_s.toFixed(0) + ' s' : ''])
       tr.insertCell().textContent = v === undefined ? '' : v;
   }
   const box = $('daemon-details');
