@@ -34,6 +34,23 @@ void MapDelta(const Map& from, const Map& to, const Encode& encode, nlohmann::js
     if (!to.count(k)) del->push_back(k);
 }
 
+// The larger side of the box holding the 1st to 99th percentile of the
+// points on each axis: a few stray far points do not coarsen every cell.
+double RobustExtent(const std::vector<Eigen::Vector2d>& plane) {
+  double extent = 0;
+  for (int axis = 0; axis < 2; ++axis) {
+    std::vector<double> v;
+    v.reserve(plane.size());
+    for (const Eigen::Vector2d& p : plane) v.push_back(p[axis]);
+    const size_t lo = v.size() / 100, hi = v.size() - 1 - v.size() / 100;
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(lo), v.end());
+    const double a = v[lo];
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(hi), v.end());
+    extent = std::max(extent, v[hi] - a);
+  }
+  return extent;
+}
+
 }  // namespace
 
 Eigen::Vector3d PlanePose(const Se3& T_wc, const std::optional<Sim3>& S_gm) {
@@ -51,13 +68,8 @@ TopView MakeTopView(const MapSnapshot& s, const std::optional<Sim3>& S_gm, int c
   v.points = static_cast<int64_t>(s.points.size());
   std::vector<Eigen::Vector2d> plane;
   plane.reserve(s.points.size());
-  Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
-  for (const Eigen::Vector3f& p : s.points) {
-    plane.push_back(Plane(p.cast<double>(), S_gm));
-    lo = lo.cwiseMin(plane.back());
-    hi = hi.cwiseMax(plane.back());
-  }
-  const double extent = plane.empty() ? 1.0 : std::max((hi - lo).maxCoeff(), 1e-6);
+  for (const Eigen::Vector3f& p : s.points) plane.push_back(Plane(p.cast<double>(), S_gm));
+  const double extent = plane.empty() ? 1.0 : std::max(RobustExtent(plane), 1e-6);
   // A power of two: the cells stay put while the map grows (until it doubles).
   v.cell_m = std::pow(2.0, std::ceil(std::log2(extent / std::max(1, cells_across))));
   for (const Eigen::Vector2d& p : plane)

@@ -57,8 +57,9 @@ struct TopView {
 };
 
 // S_gm: the global frame -> the grid frame (from grid.yaml), when there is
-// a grid. cells_across: about this many cells over the map's extent (a
-// power-of-two size in metres, kept while the extent does not double).
+// a grid. cells_across: about this many cells over the map's extent (its
+// points' 1st to 99th percentile; a power-of-two size in metres, kept while
+// the extent does not double).
 TopView MakeTopView(const MapSnapshot& s, const std::optional<Sim3>& S_gm, int cells_across);
 
 // The plane position (metres) and heading of a pose, as the top view draws it.

@@ -62,6 +62,15 @@ TEST(TopView, CellsSubsampleThePointsAtAPowerOfTwoSize) {
   EXPECT_EQ(v.components, 2);
 }
 
+TEST(TopView, AFewStrayPointsDoNotCoarsenTheCells) {
+  MapSnapshot s = Map(10000, 4);
+  const TopView v = MakeTopView(s, std::nullopt, 512);
+  s.points.emplace_back(5000.f, 0.f, 5000.f);  // a point triangulated far off
+  const TopView w = MakeTopView(s, std::nullopt, 512);
+  EXPECT_EQ(w.cell_m, v.cell_m);
+  EXPECT_EQ(w.cells.size(), v.cells.size() + 1);  // drawn all the same
+}
+
 TEST(TopView, ABackSubmapIsLinkedToTheFrontSubmapsItOverlapsInItsComponent) {
   MapSnapshot s = Map(10, 4);
   s.submaps[1].component = 1;  // front#2 not joined
@@ -107,7 +116,7 @@ TEST(TopView, AChangeOfCellSizeSendsTheWholeView) {
   TopView a = MakeTopView(Map(1000, 4), std::nullopt, 512);
   a.seq = 1;
   MapSnapshot far = Map(1000, 4);
-  far.points.emplace_back(500.f, 0.f, 500.f);  // the extent more than doubles
+  for (int i = 0; i < 100; ++i) far.points.emplace_back(500.f, 0.f, 500.f);  // the extent more than doubles
   TopView b = MakeTopView(far, std::nullopt, 512);
   b.seq = 2;
   ASSERT_NE(a.cell_m, b.cell_m);

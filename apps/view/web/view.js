@@ -84,7 +84,15 @@ function setState(state) {
 function bounds() {
   const b = { x0: Infinity, y0: Infinity, x1: -Infinity, y1: -Infinity };
   const add = (x, y) => { b.x0 = Math.min(b.x0, x); b.y0 = Math.min(b.y0, y); b.x1 = Math.max(b.x1, x); b.y1 = Math.max(b.y1, y); };
-  for (const key of view.cells) { const [i, j] = key.split(',').map(Number); add(i * view.cell_m, j * view.cell_m); }
+  // The points' 1st to 99th percentile: a few stray far points must not
+  // shrink the map to a corner (the keyframes and the trail always fit).
+  const xs = [], ys = [];
+  for (const key of view.cells) { const [i, j] = key.split(',').map(Number); xs.push(i * view.cell_m); ys.push(j * view.cell_m); }
+  if (xs.length) {
+    xs.sort((a, b) => a - b); ys.sort((a, b) => a - b);
+    const at = (v, q) => v[Math.min(v.length - 1, Math.floor(q * v.length))];
+    add(at(xs, 0.01), at(ys, 0.01)); add(at(xs, 0.99) + view.cell_m, at(ys, 0.99) + view.cell_m);
+  }
   for (const k of view.kfs.values()) add(k.x, k.y);
   for (const p of live.trail) add(p.x, p.y);
   if (!isFinite(b.x0)) return { x0: -1, y0: -1, x1: 1, y1: 1 };
