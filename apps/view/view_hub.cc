@@ -155,6 +155,11 @@ void ViewHub::CloseAll() {
   for (const auto& q : clients_) q->Close();
 }
 
+int ViewHub::streams() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return static_cast<int>(clients_.size());
+}
+
 ViewHubCounters ViewHub::counters() const {
   std::lock_guard<std::mutex> lock(mutex_);
   ViewHubCounters c = counters_;

@@ -57,6 +57,8 @@ class ViewHub {
   // stops; a page's EventSource then stops asking).
   void CloseAll();
   ViewHubCounters counters() const;
+  // Live streams open now.
+  int streams() const;
 
  private:
   void Broadcast(const std::string& event, const std::string& data);  // mutex_ held
