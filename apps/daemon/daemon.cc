@@ -366,6 +366,9 @@ class Daemon {
 
   int Stop() {
     const bool by_signal = Stopped();
+    // The view first, while the manager still answers its last DDS call:
+    // its pages see the stream end, and nothing waits on a manager gone.
+    view_.reset();
     facts_.state = facts_.failure.empty() ? "stopping" : "failed";
     systemd_.Stopping();
     if (!facts_.failure.empty())
@@ -399,7 +402,6 @@ class Daemon {
     }
     if (facts_.failure.empty()) facts_.state = "stopped";
     Publish();
-    view_.reset();
     spdlog::info("rumid: {} in {:.1f} s", facts_.failure.empty() ? "stopped" : "failed", Since(t_stop));
     return facts_.failure.empty() ? kExitDone : failure_code_;
   }

@@ -7,7 +7,7 @@
 namespace rumi {
 namespace {
 
-constexpr double kConnectS = 2.0, kCallS = 10.0;
+constexpr double kConnectS = 2.0, kCallS = 5.0;  // bounds a stop too
 
 void Nap(const std::atomic<bool>& stop, double s) {
   for (double t = 0; t < s && !stop; t += 0.05) std::this_thread::sleep_for(std::chrono::milliseconds(50));
