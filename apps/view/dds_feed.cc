@@ -86,10 +86,11 @@ void DdsFeed::FollowPoses() {
 
 void DdsFeed::FollowMap() {
   int64_t shown = -1;  // the rebuild shown
-  // With no page following, the map is fetched at most this often: a page
-  // that opens gets one that recent at once, and the next rebuild's within
-  // a second; the manager serves nothing for a view nobody looks at.
-  constexpr double kUnwatchedS = 30;
+  // With no page looking (no stream, no request for a minute), the map is
+  // fetched at most every 30 s: a page that opens gets one that recent at
+  // once, and the next rebuild's within a second; the manager serves little
+  // for a view nobody looks at.
+  constexpr double kUnwatchedS = 30, kLookedS = 60;
   auto last = std::chrono::steady_clock::now() - std::chrono::hours(1);
   std::unique_ptr<MapClient> c;
   while (!stop_) {
@@ -101,7 +102,7 @@ void DdsFeed::FollowMap() {
       Nap(stop_, 1.0);
       continue;
     }
-    const bool watched = hub_->streams() > 0 ||
+    const bool watched = hub_->Watched(kLookedS) ||
                          std::chrono::duration<double>(std::chrono::steady_clock::now() - last).count() >= kUnwatchedS;
     if (st.rebuilds != shown && st.keyframes > 0 && watched) {
       MapSnapshot s;

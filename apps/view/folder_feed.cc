@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <functional>
 #include <sstream>
 
 #include "ipc/daemon_status.h"
@@ -71,17 +72,23 @@ bool FolderFeed::Poll(std::string* why) {
       fail(w);
     }
   }
-  // rumid's front writes front/; a run folder of `rumi eval run` has it at the top.
-  const fs::path frames = fs::exists(dir / "front" / "front_frames.txt") ? dir / "front" / "front_frames.txt"
-                                                                         : dir / "front_frames.txt";
-  if (read_map_ && Changed(frames)) {  // live: the timeline grows from the pose stream
+  // rumid's front writes front/; a run folder of `rumi eval run` has them at the top.
+  const auto front_file = [&](const char* name) {
+    return fs::exists(dir / "front" / name) ? dir / "front" / name : dir / name;
+  };
+  // A line being written does not parse: read the file again next time.
+  const auto read = [&](const fs::path& p, const std::function<void()>& hand_over) {
     try {
-      hub_->SetFrames(ReadFrontFrames(frames.string()));
-    } catch (const std::exception& e) {  // a line being written: read again next time
-      seen_.erase(frames.string());
+      hand_over();
+    } catch (const std::exception& e) {
+      seen_.erase(p.string());
       fail(e.what());
     }
-  }
+  };
+  const fs::path frames = front_file("front_frames.txt"), samples = front_file("front_samples.txt");
+  if (read_map_ && Changed(frames))  // live: the timeline grows from the pose stream
+    read(frames, [&] { hub_->SetFrames(ReadFrontFrames(frames.string())); });
+  if (Changed(samples)) read(samples, [&] { hub_->SetSamples(ReadFrontSamples(samples.string())); });
   return ok;
 }
 

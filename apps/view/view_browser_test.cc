@@ -34,9 +34,8 @@ SyntheticScene Scene() {
   return MakeSyntheticScene(so);
 }
 
-// A session as rumid leaves it: two front submaps joined by the back submap
-// that rebuilt the loss between them, a third front submap not joined (its
-// own component), the grid, status.json and front_frames.txt.
+// The map: two front submaps joined by the back submap that rebuilt the
+// loss between them, a third front submap not joined (its own component);
 // grown: one more front submap joined to the main map (a map update).
 void WriteMap(const fs::path& dir, bool grown) {
   fs::create_directories(dir / "front");
@@ -65,6 +64,8 @@ void WriteMap(const fs::path& dir, bool grown) {
   ASSERT_TRUE(SaveGlobalMap(map, (dir / "map.rumi").string(), &why)) << why;
 }
 
+// A session as rumid leaves it: the map, the grid, status.json,
+// front_frames.txt and front_samples.txt.
 void WriteSession(const fs::path& dir) {
   WriteMap(dir, false);
   std::string why;
@@ -95,6 +96,11 @@ void WriteSession(const fs::path& dir) {
        {"back", {{"queue", 0}, {"windows_built", 1}}},
        {"rings", {{{"name", "rumi_browser_windows"}, {"dropped", 2}}}}});
   const SyntheticScene scene = Scene();
+  // One window for the first loss: S1 before it, S2 through it, S3 after.
+  std::ofstream samples(dir / "front" / "front_samples.txt");
+  for (int i = 30; i < 66; ++i)
+    samples << std::fixed << std::setprecision(9) << NsToSeconds(scene.timestamps[size_t(i)]) << " "
+            << (i < 45 ? "S1" : i < 58 ? "S2" : "S3") << " 7\n";
   std::ofstream frames(dir / "front" / "front_frames.txt");
   for (int i = 0; i < 120; ++i) {
     const bool lost = (i > 44 && i < 58) || (i > 90 && i < 96);
@@ -187,6 +193,7 @@ TEST(ViewBrowser, ThePageShowsWhatTheMapFileHolds) {
   EXPECT_EQ(ById(dom, "drawn-trail"), "30");  // every live pose (15 Hz at most: they are 10 Hz)
   // tracking, lost, tracking, lost, tracking, end from front_frames.txt; then tracking, lost live.
   EXPECT_EQ(ById(dom, "timeline-count"), "8");
+  EXPECT_EQ(ById(dom, "windows-count"), "1");
   EXPECT_EQ(ById(dom, "live"), "offline");
   EXPECT_NE(dom.find("component 1 (not joined)"), std::string::npos);
   EXPECT_NE(dom.find("<td>rumi-front</td><td>exited</td><td>1</td>"), std::string::npos);

@@ -1,6 +1,8 @@
 #include "apps/view/view_hub.h"
 
 #include <algorithm>
+#include <array>
+#include <map>
 #include <sstream>
 
 namespace rumi {
@@ -69,10 +71,28 @@ void ViewHub::SetFrames(const std::vector<FrontFrameLine>& frames) {
   Broadcast("timeline", timeline_.dump());
 }
 
+void ViewHub::SetSamples(const std::vector<FrontSampleLine>& samples) {
+  std::map<int64_t, std::array<double, 5>> by_window;  // first, last, S1, S2, S3
+  for (const FrontSampleLine& l : samples) {
+    const double t = NsToSeconds(l.t);
+    auto [it, fresh] = by_window.try_emplace(l.window_id, std::array<double, 5>{t, t, 0, 0, 0});
+    it->second[0] = std::min(it->second[0], t);
+    it->second[1] = std::max(it->second[1], t);
+    if (l.set >= 1 && l.set <= 3) it->second[size_t(1 + l.set)] += 1;
+  }
+  nlohmann::json w = nlohmann::json::array();
+  for (const auto& [id, a] : by_window) w.push_back({id, a[0], a[1], int(a[2]), int(a[3]), int(a[4])});
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (w == windows_) return;
+  windows_ = std::move(w);
+  Broadcast("windows", windows_.dump());
+}
+
 void ViewHub::AddPose(const LivePose& p) {
   const double t = NsToSeconds(p.timestamp);
   nlohmann::json j = {{"t", t}, {"state", LiveStateName(p.state)}, {"submap", p.submap}};
   std::lock_guard<std::mutex> lock(mutex_);
+  pose_t_ = t;
   const bool state_changed = timeline_.empty() || timeline_.back()[1] != j["state"];
   Extend(&timeline_, t, j["state"]);
   // A change of state always goes out (the timeline); otherwise pose_hz.
@@ -90,14 +110,27 @@ void ViewHub::AddPose(const LivePose& p) {
   Broadcast("pose", j.dump());
 }
 
-std::string ViewHub::MapJson() const {
+std::string ViewHub::MapJson() {
   std::lock_guard<std::mutex> lock(mutex_);
+  asked_ = std::chrono::steady_clock::now();
   return map_json_;
 }
 
-std::string ViewHub::StateJson() const {
+std::string ViewHub::StateJson() {
   std::lock_guard<std::mutex> lock(mutex_);
-  return nlohmann::json({{"status", status_}, {"timeline", timeline_}, {"trail", trail_}}).dump();
+  asked_ = std::chrono::steady_clock::now();
+  return nlohmann::json({{"status", status_},
+                         {"timeline", timeline_},
+                         {"pose_t", pose_t_},
+                         {"windows", windows_},
+                         {"trail", trail_}})
+      .dump();
+}
+
+bool ViewHub::Watched(double within_s) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return !clients_.empty() ||
+         std::chrono::duration<double>(std::chrono::steady_clock::now() - asked_).count() < within_s;
 }
 
 std::string ViewHub::GridJson() const {
@@ -153,11 +186,6 @@ void ViewHub::CloseAll() {
   std::lock_guard<std::mutex> lock(mutex_);
   closed_ = true;
   for (const auto& q : clients_) q->Close();
-}
-
-int ViewHub::streams() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return static_cast<int>(clients_.size());
 }
 
 ViewHubCounters ViewHub::counters() const {

@@ -4,6 +4,7 @@
 // the hub turns them into the page's JSON and each stream's messages. Many
 // tabs cost one snapshot per update, not one per tab. Nothing here blocks a
 // feed: each stream has its own bounded queue (ClientQueue).
+#include <chrono>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -38,13 +39,19 @@ class ViewHub {
   void SetStatus(const nlohmann::json& status);
   // front_frames.txt of a finished session (the timeline of a folder).
   void SetFrames(const std::vector<FrontFrameLine>& frames);
+  // front_samples.txt: the frames the sampler sent the back, by window.
+  void SetSamples(const std::vector<FrontSampleLine>& samples);
   // The live pose; at most view.pose_hz of them go out.
   void AddPose(const LivePose& pose);
 
   // GET /api/map: the whole top view (TopViewDelta from nothing).
-  std::string MapJson() const;
-  // GET /api/state: status, the timeline so far and the pose trail.
-  std::string StateJson() const;
+  std::string MapJson();
+  // GET /api/state: status, the timeline so far (up to the last pose's
+  // time), the windows and the pose trail.
+  std::string StateJson();
+  // Whether a page looked in the last `within_s` seconds: a stream is open,
+  // or /api/map or /api/state was asked for (a still page, ?live=0).
+  bool Watched(double within_s) const;
   // GET /api/grid: resolution, origin, size; GET /api/grid.pgm: the cells.
   std::string GridJson() const;
   std::string GridPgm() const;  // "" without a grid
@@ -57,8 +64,6 @@ class ViewHub {
   // stops; a page's EventSource then stops asking).
   void CloseAll();
   ViewHubCounters counters() const;
-  // Live streams open now.
-  int streams() const;
 
  private:
   void Broadcast(const std::string& event, const std::string& data);  // mutex_ held
@@ -73,7 +78,10 @@ class ViewHub {
   nlohmann::json status_ = nlohmann::json::object();
   nlohmann::json timeline_ = nlohmann::json::array();  // [t_s, state] at each change of state
   nlohmann::json trail_ = nlohmann::json::array();     // [t_s, x, y, yaw] of the recent poses
-  double last_pose_s_ = -1e300;
+  nlohmann::json windows_ = nlohmann::json::array();   // [id, first_s, last_s, S1, S2, S3] per window sent
+  double last_pose_s_ = -1e300;  // the last pose sent out
+  double pose_t_ = 0;              // the last pose received (its capture time)
+  std::chrono::steady_clock::time_point asked_;  // the last /api/map or /api/state
   std::vector<std::shared_ptr<ClientQueue>> clients_;
   bool closed_ = false;
   ViewHubCounters counters_;

@@ -14,7 +14,7 @@ window.addEventListener('unhandledrejection', (e) => { $('errors').textContent +
 
 // The map as the page holds it; map deltas apply to it (TopViewDelta).
 const view = { seq: 0, frame: 'map', cell_m: 1, cells: new Set(), kfs: new Map(), submaps: new Map(), links: [], counts: {} };
-const live = { trail: [], timeline: [], status: {}, grid: null, gridImage: null };
+const live = { trail: [], timeline: [], windows: [], poseT: 0, status: {}, grid: null, gridImage: null };
 const TRAIL = 600;
 const PALETTE = ['#1565c0', '#ef6c00', '#6a1b9a', '#00897b', '#c2185b', '#5d4037', '#7cb342', '#3949ab'];
 const STATE_COLOUR = { tracking: '#43a047', coarse: '#fbc02d', lost: '#e53935', initializing: '#9e9e9e' };
@@ -77,6 +77,8 @@ async function loadGrid() {
 function setState(state) {
   live.status = state.status || {};
   live.timeline = state.timeline || [];
+  live.windows = state.windows || [];
+  live.poseT = state.pose_t || 0;
   live.trail = (state.trail || []).map(([t, x, y, yaw]) => ({ t, x, y, yaw }));
 }
 
@@ -198,11 +200,21 @@ function drawTimeline() {
   let t0 = Infinity, t1 = -Infinity;
   for (const [t] of live.timeline) { t0 = Math.min(t0, t); t1 = Math.max(t1, t); }
   for (const sm of view.submaps.values()) if (sm.kfs) { t0 = Math.min(t0, sm.first); t1 = Math.max(t1, sm.last); }
-  if (live.trail.length) t1 = Math.max(t1, live.trail[live.trail.length - 1].t);
+  if (live.poseT && isFinite(t0)) t1 = Math.max(t1, live.poseT);  // the state goes on to the last pose
+  for (const [, first, last] of live.windows) { t0 = Math.min(t0, first); t1 = Math.max(t1, last); }
+  $('timeline-count').textContent = live.timeline.length;
+  $('windows-count').textContent = live.windows.length;
   if (!isFinite(t0) || t1 <= t0) return;
-  const X = (t) => 40 + (t - t0) / (t1 - t0) * (canvas.width - 50);
+  const X = (t) => 44 + (t - t0) / (t1 - t0) * (canvas.width - 54);
   ctx.font = '11px sans-serif'; ctx.fillStyle = '#555';
-  ctx.fillText('state', 2, 20); ctx.fillText('back', 2, 52); ctx.fillText('front', 2, 84);
+  ctx.fillText('state', 2, 20); ctx.fillText('window', 2, 52); ctx.fillText('back', 2, 84); ctx.fillText('front', 2, 116);
+  // Each window sent to the back over the frames it holds, and its samples by set.
+  for (const [id, first, last, s1, s2, s3] of live.windows) {
+    ctx.fillStyle = '#00897b';
+    ctx.fillRect(X(first), 40, Math.max(2, X(last) - X(first)), 18);
+    ctx.fillStyle = '#fff';
+    ctx.fillText('#' + id + ' S1 ' + s1 + ' S2 ' + s2 + ' S3 ' + s3, X(first) + 3, 53);
+  }
   for (let i = 0; i < live.timeline.length; i++) {
     const [t, state] = live.timeline[i];
     if (state === 'end') continue;
@@ -215,14 +227,13 @@ function drawTimeline() {
     if (!sm.kfs) continue;
     const back = sm.kind === 'back';
     ctx.fillStyle = back ? '#1e88e5' : componentColour(sm.c);
-    const y = back ? 40 : 72;
+    const y = back ? 72 : 104;
     ctx.fillRect(X(sm.first), y, Math.max(2, X(sm.last) - X(sm.first)), 18);
     if (back && joined.has(key)) { ctx.fillStyle = '#fff'; ctx.fillText('✓', X(sm.first) + 2, y + 13); }
   }
   ctx.fillStyle = '#555';
-  ctx.fillText(t0.toFixed(1) + ' s', 40, 106);
-  ctx.fillText(t1.toFixed(1) + ' s', canvas.width - 60, 106);
-  $('timeline-count').textContent = live.timeline.length;
+  ctx.fillText(t0.toFixed(1) + ' s', 44, 138);
+  ctx.fillText(t1.toFixed(1) + ' s', canvas.width - 60, 138);
 }
 
 // ---- the daemon panel ----
@@ -300,8 +311,10 @@ function follow() {
   es.addEventListener('grid', () => loadGrid().then(redraw));
   es.addEventListener('status', (e) => { live.status = JSON.parse(e.data); redraw(); });
   es.addEventListener('timeline', (e) => { live.timeline = JSON.parse(e.data); redraw(); });
+  es.addEventListener('windows', (e) => { live.windows = JSON.parse(e.data); redraw(); });
   es.addEventListener('pose', (e) => {
     const p = JSON.parse(e.data);
+    live.poseT = Math.max(live.poseT, p.t);
     const last = live.timeline[live.timeline.length - 1];
     if (!last || last[1] !== p.state) live.timeline.push([p.t, p.state]);
     if (p.x !== undefined) {
