@@ -15,12 +15,40 @@
 
 namespace rumi::cli {
 
+namespace {
+
+// The command line; a port of -1 and empty strings leave the config's view: as it is.
+struct ViewArgs {
+  std::string dir, config, bind, token;
+  int port = -1;
+};
+
+[[noreturn]] void Refuse(const std::string& why) {
+  std::cerr << "rumi view: " << why << "\n";
+  throw CLI::RuntimeError(kExitBadInput);
+}
+
+// The config's view: with the command line over it, checked.
+ViewSessionOptions SessionOptionsOf(const ViewArgs& a) {
+  ViewSessionOptions o;
+  try {
+    o.view = LoadRumiConfig(a.config).view;
+  } catch (const ConfigError& e) {
+    Refuse(e.what());
+  }
+  if (!a.bind.empty()) o.view.bind = a.bind;
+  if (a.port >= 0) o.view.port = a.port;
+  if (!a.token.empty()) o.view.token = a.token;
+  o.state_dir = std::filesystem::absolute(a.dir).string();
+  std::string why;
+  if (!o.view.Check(&why)) Refuse("view." + why);
+  return o;
+}
+
+}  // namespace
+
 void RegisterViewCommand(CLI::App* app) {
-  struct Args {
-    std::string dir, config, bind, token;
-    int port = -1;
-  };
-  auto a = std::make_shared<Args>();
+  auto a = std::make_shared<ViewArgs>();
   CLI::App* cmd = app->add_subcommand("view", "serve the web view of a session folder (its saved map) until Ctrl-C");
   cmd->add_option("dir", a->dir, "a rumid state folder or an eval run folder (holding map.rumi)")
       ->required()
@@ -30,22 +58,8 @@ void RegisterViewCommand(CLI::App* app) {
   cmd->add_option("--port", a->port, "TCP port (default view.port; 0: a free one)");
   cmd->add_option("--token", a->token, "require this token (needed for a bind other than loopback)");
   cmd->callback([a] {
-    ViewSessionOptions o;
-    try {
-      o.view = LoadRumiConfig(a->config).view;
-    } catch (const ConfigError& e) {
-      std::cerr << "rumi view: " << e.what() << "\n";
-      throw CLI::RuntimeError(kExitBadInput);
-    }
-    if (!a->bind.empty()) o.view.bind = a->bind;
-    if (a->port >= 0) o.view.port = a->port;
-    if (!a->token.empty()) o.view.token = a->token;
-    o.state_dir = std::filesystem::absolute(a->dir).string();
+    const ViewSessionOptions o = SessionOptionsOf(*a);
     std::string why;
-    if (!o.view.Check(&why)) {
-      std::cerr << "rumi view: view." << why << "\n";
-      throw CLI::RuntimeError(kExitBadInput);
-    }
     ProcessSignals::Install();
     auto session = ViewSession::Start(o, &why);
     if (!session) {

@@ -25,11 +25,9 @@ bool ClientQueue::Pop(std::chrono::milliseconds wait, std::string* message) {
 }
 
 void ClientQueue::Close() {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    closed_ = true;
-  }
-  cv_.notify_all();
+  std::lock_guard<std::mutex> lock(mutex_);
+  closed_ = true;
+  cv_.notify_all();  // every stream thread waiting in Pop wakes and ends
 }
 
 bool ClientQueue::closed() const {

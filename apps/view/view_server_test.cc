@@ -15,11 +15,12 @@
 namespace rumi {
 namespace {
 
-ViewOptions Loopback() {
+// Any free port on loopback; few streams with short queues (the limits are tested).
+ViewOptions Loopback(int max_clients = 3, int client_queue = 8) {
   ViewOptions o;
   o.port = 0;
-  o.max_clients = 3;
-  o.client_queue = 8;
+  o.max_clients = max_clients;
+  o.client_queue = client_queue;
   return o;
 }
 
@@ -93,10 +94,10 @@ TEST(ClientQueue, AFullQueueDropsItsOldest) {
 }
 
 TEST(ViewOptions, ANonLoopbackAddressNeedsAToken) {
-  ViewOptions o;
-  EXPECT_TRUE(o.Check());
-  o.bind = "0.0.0.0";
   std::string why;
+  ViewOptions o;
+  EXPECT_TRUE(o.Check(&why)) << why;
+  o.bind = "0.0.0.0";
   EXPECT_FALSE(o.Check(&why));
   EXPECT_NE(why.find("token"), std::string::npos) << why;
   o.token_file = "view.token";
