@@ -174,6 +174,32 @@ TEST(ViewServer, ANonLoopbackBindWithoutATokenDoesNotStart) {
   EXPECT_NE(why.find("token"), std::string::npos) << why;
 }
 
+TEST(ViewServer, ManyPagesGetOneDeltaPerMapUpdate) {
+  Served s(Loopback(), "");
+  ASSERT_TRUE(s.server);
+  const int a = OpenStream(s.server->port()), b = OpenStream(s.server->port());
+  ASSERT_TRUE(test::WaitFor([&] { return s.hub->counters().clients == 2; }, 30));
+  MapSnapshot m;
+  for (int i = 0; i < 100; ++i) m.points.emplace_back(0.1f * i, 0.f, 0.05f * i);
+  SnapshotSubmap sm;
+  sm.key = "front#1";
+  m.submaps.push_back(sm);
+  s.hub->SetMap(m, SnapshotGrid());
+  m.points.emplace_back(3.f, 0.f, 2.f);
+  s.hub->SetMap(m, SnapshotGrid());
+  EXPECT_EQ(s.hub->counters().map_updates, 2);  // two updates, whatever the number of pages
+  for (int fd : {a, b}) {
+    std::string seen;
+    EXPECT_TRUE(ReadUntil(fd, "\"base\":1", 30, &seen)) << seen;  // the second is a delta from the first
+    EXPECT_NE(seen.find("event: map"), std::string::npos);
+    ::close(fd);
+  }
+  // A page that opens now gets the whole view, numbered as the last delta.
+  const auto whole = nlohmann::json::parse(s.Client().Get("/api/map")->body);
+  EXPECT_EQ(whole["seq"], 2);
+  EXPECT_EQ(whole["counts"]["points"], 101);
+}
+
 TEST(ViewServer, AStalledBrowserLosesItsOldestMessagesAndHoldsUpNoOne) {
   Served s(Loopback(), "");
   ASSERT_TRUE(s.server);
