@@ -47,12 +47,14 @@ void ViewHub::SetMap(const MapSnapshot& map, const SnapshotGrid& grid) {
   const std::string delta = TopViewDelta(view_, next).dump();
   view_ = std::move(next);
   map_json_ = TopViewDelta(TopView(), view_).dump();
+  // Pages fetch the grid's cells again only when they changed.
+  const bool grid_changed = grid.ok != grid_.ok || grid.yaml != grid_.yaml || grid.cells.pixels != grid_.cells.pixels;
   grid_ = grid;
   S_gm_ = S_gm;
   ++counters_.map_updates;
   counters_.delta_bytes += static_cast<int64_t>(delta.size());
   Broadcast("map", delta);
-  if (grid.ok) Broadcast("grid", GridMeta());
+  if (grid_changed) Broadcast("grid", GridMeta());
 }
 
 void ViewHub::SetStatus(const nlohmann::json& status) {
