@@ -416,7 +416,7 @@ TEST_F(Daemon, ServesTheLiveMapOverDds) {
         map = nlohmann::json::parse(m->body, nullptr, false);
         state = nlohmann::json::parse(s->body, nullptr, false);
         return map.is_object() && state.is_object() && map["counts"].value("keyframes", 0) >= 5 &&
-               !state["trail"].empty() && state["status"].contains("children");
+               !state["trail"].empty() && state["status"].contains("children") && !state["events"].empty();
       },
       120, std::chrono::milliseconds(500)))
       << map.dump().substr(0, 500) << "\n" << state.dump().substr(0, 500);

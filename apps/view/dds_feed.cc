@@ -97,6 +97,7 @@ void DdsFeed::FollowMap() {
     std::string why;
     if (!c) c = MapClient::Connect(dds_, instance_, kConnectS, &why);
     SnapshotStatus st;
+    if (c) hub_->AddEvents(c->TakeEvents());
     if (!c || !c->LatestStatus(kConnectS, &st, &why)) {
       c.reset();
       Nap(stop_, 1.0);

@@ -1,8 +1,9 @@
 #pragma once
 // Feeds a ViewHub from rumi-manager over DDS (docs/dds.md), as any other
 // client of the map service: the live pose (the pose topic) as it comes,
-// and the map (points, keyframes, submaps, grid) fetched once each time the
-// status topic says the manager rebuilt, whatever the number of pages open.
+// the map's events (merges, loops), and the map (points, keyframes,
+// submaps, grid) fetched once each time the status topic says the manager
+// rebuilt, whatever the number of pages open.
 // The manager never waits on it: its server answers from its last snapshot.
 #include <atomic>
 #include <memory>

@@ -161,6 +161,9 @@ TEST(ViewBrowser, ThePageShowsWhatTheMapFileHolds) {
     p.T_wc = scene.T_wc[size_t(60 + i)];
     session->hub().AddPose(p);
   }
+  // The manager's events over DDS, as DdsFeed hands them over.
+  session->hub().AddEvents({{"merged", "back#101", "front#1", Sim3(), "inliers 80"},
+                            {"loop", "front#2", "front#1", Sim3(), "keyframe 60 -> 4"}});
   WriteMap(dir, true);
   const bool updated = test::WaitFor([&] { return session->hub().counters().map_updates >= 2; }, 60);
   // The stream ends after what it holds; the page's EventSource is refused
@@ -195,6 +198,9 @@ TEST(ViewBrowser, ThePageShowsWhatTheMapFileHolds) {
   EXPECT_EQ(ById(dom, "timeline-count"), "8");
   EXPECT_EQ(ById(dom, "windows-count"), "1");
   EXPECT_EQ(ById(dom, "live"), "offline");
+  EXPECT_EQ(ById(dom, "count-merges"), "1");
+  EXPECT_EQ(ById(dom, "count-loops"), "1");
+  EXPECT_NE(dom.find("loop front#2 → front#1 (keyframe 60 -&gt; 4)"), std::string::npos);
   EXPECT_NE(dom.find("component 1 (not joined)"), std::string::npos);
   EXPECT_NE(dom.find("<td>rumi-front</td><td>exited</td><td>1</td>"), std::string::npos);
   EXPECT_EQ(ById(dom, "instance"), "browser");

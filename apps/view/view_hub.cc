@@ -9,6 +9,7 @@ namespace rumi {
 namespace {
 
 constexpr size_t kTrail = 600;  // poses kept for a page that opens late
+constexpr size_t kEvents = 200;  // map events kept (every merge and loop of a long session: a few dozen)
 
 // The timeline's words: LivePose numbers its states 0 initialising, 1 fine,
 // 2 coarse, 3 lost; front_frames.txt by TrackingState.
@@ -90,6 +91,16 @@ void ViewHub::SetSamples(const std::vector<FrontSampleLine>& samples) {
   Broadcast("windows", windows_.dump());
 }
 
+void ViewHub::AddEvents(const std::vector<SnapshotEvent>& events) {
+  if (events.empty()) return;
+  nlohmann::json add = nlohmann::json::array();
+  for (const SnapshotEvent& e : events) add.push_back({e.kind, e.submap, e.other, e.detail});
+  std::lock_guard<std::mutex> lock(mutex_);
+  events_.insert(events_.end(), add.begin(), add.end());
+  if (events_.size() > kEvents) events_.erase(events_.begin(), events_.begin() + (events_.size() - kEvents));
+  Broadcast("events", add.dump());
+}
+
 void ViewHub::AddPose(const LivePose& p) {
   const double t = NsToSeconds(p.timestamp);
   nlohmann::json j = {{"t", t}, {"state", LiveStateName(p.state)}, {"submap", p.submap}};
@@ -125,6 +136,7 @@ std::string ViewHub::StateJson() {
                          {"timeline", timeline_},
                          {"pose_t", pose_t_},
                          {"windows", windows_},
+                         {"events", events_},
                          {"trail", trail_}})
       .dump();
 }

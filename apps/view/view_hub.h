@@ -41,13 +41,16 @@ class ViewHub {
   void SetFrames(const std::vector<FrontFrameLine>& frames);
   // front_samples.txt: the frames the sampler sent the back, by window.
   void SetSamples(const std::vector<FrontSampleLine>& samples);
+  // The manager's events (the DDS events topic): merges and closed loops are
+  // drawn as links, the last ones listed.
+  void AddEvents(const std::vector<SnapshotEvent>& events);
   // The live pose; at most view.pose_hz of them go out.
   void AddPose(const LivePose& pose);
 
   // GET /api/map: the whole top view (TopViewDelta from nothing).
   std::string MapJson();
   // GET /api/state: status, the timeline so far (up to the last pose's
-  // time), the windows and the pose trail.
+  // time), the windows, the events and the pose trail.
   std::string StateJson();
   // Whether a page looked in the last `within_s` seconds: a stream is open,
   // or /api/map or /api/state was asked for (a still page, ?live=0).
@@ -79,6 +82,7 @@ class ViewHub {
   nlohmann::json timeline_ = nlohmann::json::array();  // [t_s, state] at each change of state
   nlohmann::json trail_ = nlohmann::json::array();     // [t_s, x, y, yaw] of the recent poses
   nlohmann::json windows_ = nlohmann::json::array();   // [id, first_s, last_s, S1, S2, S3] per window sent
+  nlohmann::json events_ = nlohmann::json::array();    // [kind, submap, other, detail], the last kEvents
   double last_pose_s_ = -1e300;  // the last pose sent out
   double pose_t_ = 0;              // the last pose received (its capture time)
   std::chrono::steady_clock::time_point asked_;  // the last /api/map or /api/state

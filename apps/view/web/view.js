@@ -14,7 +14,8 @@ window.addEventListener('unhandledrejection', (e) => { $('errors').textContent +
 
 // The map as the page holds it; map deltas apply to it (TopViewDelta).
 const view = { seq: 0, frame: 'map', cell_m: 1, cells: new Set(), kfs: new Map(), submaps: new Map(), links: [], counts: {} };
-const live = { trail: [], timeline: [], windows: [], poseT: 0, status: {}, grid: null, gridImage: null };
+const live = { trail: [], timeline: [], windows: [], events: [], poseT: 0, status: {}, grid: null, gridImage: null };
+const EVENTS = 200;
 const TRAIL = 600;
 const PALETTE = ['#1565c0', '#ef6c00', '#6a1b9a', '#00897b', '#c2185b', '#5d4037', '#7cb342', '#3949ab'];
 const STATE_COLOUR = { tracking: '#43a047', coarse: '#fbc02d', lost: '#e53935', initializing: '#9e9e9e' };
@@ -79,6 +80,7 @@ function setState(state) {
   live.timeline = state.timeline || [];
   live.windows = state.windows || [];
   live.poseT = state.pose_t || 0;
+  live.events = state.events || [];
   live.trail = (state.trail || []).map(([t, x, y, yaw]) => ({ t, x, y, yaw }));
 }
 
@@ -137,6 +139,16 @@ function drawTop() {
     if (!ca || !cb) continue;
     ctx.beginPath(); ctx.moveTo(X(ca.x / ca.n), Y(ca.y / ca.n)); ctx.lineTo(X(cb.x / cb.n), Y(cb.y / cb.n)); ctx.stroke();
   }
+  // The manager's merges (thin) and closed loops (purple), as it announced them.
+  for (const [kind, a, bk] of live.events) {
+    if (kind !== 'merged' && kind !== 'loop') continue;
+    const ca = centres.get(a), cb = centres.get(bk);
+    if (!ca || !cb) continue;
+    ctx.strokeStyle = kind === 'loop' ? '#8e24aa' : '#ff6f00';
+    ctx.lineWidth = kind === 'loop' ? 2 : 1;
+    ctx.setLineDash(kind === 'loop' ? [2, 3] : []);
+    ctx.beginPath(); ctx.moveTo(X(ca.x / ca.n), Y(ca.y / ca.n)); ctx.lineTo(X(cb.x / cb.n), Y(cb.y / cb.n)); ctx.stroke();
+  }
   ctx.setLineDash([]);
   let kfs = 0;
   for (const [key, k] of view.kfs) {
@@ -188,7 +200,7 @@ function drawTop() {
     legend.append(span);
   }
   const note = document.createElement('span');
-  note.textContent = '▲ front keyframe · □ back keyframe · dashed: joins · red: live pose';
+  note.textContent = '▲ front keyframe · □ back keyframe · dashed: joins · thin: merges · purple: loops · red: live pose';
   legend.append(note);
 }
 
@@ -287,6 +299,21 @@ function drawDaemon() {
 function drawCounts() {
   const c = view.counts || {};
   for (const k of ['points', 'keyframes', 'submaps', 'components', 'links']) $('count-' + k).textContent = c[k] || 0;
+  $('count-merges').textContent = live.events.filter(([kind]) => kind === 'merged').length;
+  $('count-loops').textContent = live.events.filter(([kind]) => kind === 'loop').length;
+}
+
+function drawEvents() {
+  const list = $('events');
+  list.textContent = '';
+  const shown = live.events.filter(([kind]) => kind !== 'saved').slice(-12);
+  list.start = live.events.length;
+  for (const [kind, a, b, detail] of shown.reverse()) {
+    const li = document.createElement('li');
+    li.textContent = kind + ' ' + a + (b ? ' → ' + b : '') + (detail ? ' (' + detail + ')' : '');
+    list.append(li);
+  }
+  if (!shown.length) list.textContent = 'none yet (they come from rumi-manager over DDS)';
 }
 
 let pending = false;
@@ -295,7 +322,7 @@ function redraw() {
   pending = true;
   requestAnimationFrame(() => { pending = false; drawAll(); });
 }
-function drawAll() { drawCounts(); drawTop(); drawTimeline(); drawDaemon(); }
+function drawAll() { drawCounts(); drawTop(); drawTimeline(); drawDaemon(); drawEvents(); }
 
 function follow() {
   const es = new EventSource(api('/api/events'));
@@ -312,6 +339,11 @@ function follow() {
   es.addEventListener('status', (e) => { live.status = JSON.parse(e.data); redraw(); });
   es.addEventListener('timeline', (e) => { live.timeline = JSON.parse(e.data); redraw(); });
   es.addEventListener('windows', (e) => { live.windows = JSON.parse(e.data); redraw(); });
+  es.addEventListener('events', (e) => {
+    live.events.push(...JSON.parse(e.data));
+    if (live.events.length > EVENTS) live.events.splice(0, live.events.length - EVENTS);
+    redraw();
+  });
   es.addEventListener('pose', (e) => {
     const p = JSON.parse(e.data);
     live.poseT = Math.max(live.poseT, p.t);
