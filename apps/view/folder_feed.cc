@@ -48,9 +48,19 @@ bool FolderFeed::Poll(std::string* why) {
     nlohmann::json st;
     std::string w;
     if (ReadDaemonStatus(dir_, &st, &w))
-      hub_->SetStatus(st);
+      hub_->SetFile("status", st);
     else
       fail(w);
+  }
+  // The manager's counts at its last save (merges, loops): what a saved
+  // session says of itself, without the DDS events.
+  if (Changed(dir / "manager_stats.json")) {
+    std::ifstream in(dir / "manager_stats.json");
+    const nlohmann::json stats = nlohmann::json::parse(in, nullptr, false);
+    if (stats.is_object())
+      hub_->SetFile("manager_stats", stats);
+    else
+      seen_.erase((dir / "manager_stats.json").string());  // being replaced: next time
   }
   // The map and its grid go together: the grid is drawn in the map's plane.
   const bool grid_changed = Changed(dir / "grid.yaml");

@@ -1,7 +1,7 @@
 #pragma once
 // Feeds a ViewHub from a state folder: map.rumi, grid.yaml/.pgm,
-// status.json, front_frames.txt and front_samples.txt, each read again when
-// it changed (its size or time). `rumi view STATE_DIR` shows a finished session this way;
+// status.json, manager_stats.json, front_frames.txt and front_samples.txt,
+// each read again when it changed (its size or time). `rumi view STATE_DIR` shows a finished session this way;
 // rumid's view reads its own folder for the daemon's status and, without
 // DDS, for the map (at each of the manager's saves).
 #include <atomic>

@@ -96,6 +96,8 @@ void WriteSession(const fs::path& dir) {
        {"back", {{"queue", 0}, {"windows_built", 1}}},
        {"rings", {{{"name", "rumi_browser_windows"}, {"dropped", 2}}}}});
   const SyntheticScene scene = Scene();
+  std::ofstream(dir / "manager_stats.json")
+      << nlohmann::json({{"merges", 2}, {"loop_closures", 0}, {"components", 2}, {"last_save", "at the stop"}});
   // One window for the first loss: S1 before it, S2 through it, S3 after.
   std::ofstream samples(dir / "front" / "front_samples.txt");
   for (int i = 30; i < 66; ++i)
@@ -206,10 +208,19 @@ TEST(ViewBrowser, ThePageShowsWhatTheMapFileHolds) {
   EXPECT_EQ(ById(dom, "instance"), "browser");
   session.reset();
 
-  // The same page as a picture, still (?live=0: nothing left open). The
-  // docs' pictures come this way from a demo session.
+  // The saved session alone, still (?live=0: nothing left open), as `rumi
+  // view` shows it: no events, so the merges are the last save's count.
   session = ViewSession::Start(o, &why);
   ASSERT_TRUE(session) << why;
+  const test::CommandResult still =
+      test::RunCommand("timeout 180 " + base + "--dump-dom " + session->Address() + "?live=0 2>>" + log);
+  ASSERT_EQ(still.code, 0) << test::Slurp(log);
+  EXPECT_EQ(ById(still.out, "loaded"), "yes");
+  EXPECT_EQ(ById(still.out, "errors"), "");
+  EXPECT_EQ(ById(still.out, "count-merges"), "2");
+  EXPECT_EQ(ById(still.out, "count-submaps"), "5");
+  EXPECT_NE(still.out.find("map at its last save"), std::string::npos);
+  // The same page as a picture (the docs' come this way from a demo session).
   // The same page as a picture (docs/view.md's come from a demo session).
   const fs::path png = tmp.path() / "view.png";
   const test::CommandResult shot = test::RunCommand("timeout 180 " + base + "--window-size=1400,1000 --screenshot=" +

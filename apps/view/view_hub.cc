@@ -58,11 +58,11 @@ void ViewHub::SetMap(const MapSnapshot& map, const SnapshotGrid& grid) {
   if (grid_changed) Broadcast("grid", GridMeta());
 }
 
-void ViewHub::SetStatus(const nlohmann::json& status) {
+void ViewHub::SetFile(const std::string& name, const nlohmann::json& content) {
   std::lock_guard<std::mutex> lock(mutex_);
-  status_ = status;
-  ++counters_.status_messages;
-  Broadcast("status", status.dump());
+  files_[name] = content;
+  ++counters_.file_messages;
+  Broadcast(name, content.dump());
 }
 
 void ViewHub::SetFrames(const std::vector<FrontFrameLine>& frames) {
@@ -132,13 +132,13 @@ std::string ViewHub::MapJson() {
 std::string ViewHub::StateJson() {
   std::lock_guard<std::mutex> lock(mutex_);
   asked_ = std::chrono::steady_clock::now();
-  return nlohmann::json({{"status", status_},
-                         {"timeline", timeline_},
-                         {"pose_t", pose_t_},
-                         {"windows", windows_},
-                         {"events", events_},
-                         {"trail", trail_}})
-      .dump();
+  nlohmann::json state = files_;
+  state.update({{"timeline", timeline_},
+                {"pose_t", pose_t_},
+                {"windows", windows_},
+                {"events", events_},
+                {"trail", trail_}});
+  return state.dump();
 }
 
 bool ViewHub::Watched(double within_s) const {

@@ -24,7 +24,7 @@
 namespace rumi {
 
 struct ViewHubCounters {
-  int64_t map_updates = 0, delta_bytes = 0, pose_messages = 0, status_messages = 0;
+  int64_t map_updates = 0, delta_bytes = 0, pose_messages = 0, file_messages = 0;
   int64_t clients = 0, refused_clients = 0, dropped = 0;  // dropped: of streams already closed
 };
 
@@ -35,8 +35,10 @@ class ViewHub {
   // A new map (and the grid with it; grid.ok false: none). Streams get the
   // delta from the previous map.
   void SetMap(const MapSnapshot& map, const SnapshotGrid& grid);
-  // status.json as rumid writes it ({} without a daemon).
-  void SetStatus(const nlohmann::json& status);
+  // A file of the session as it is, under its name: "status" (status.json as
+  // rumid writes it), "manager_stats" (manager_stats.json, at each save).
+  // Pages get it whole, in /api/state and as an event of that name.
+  void SetFile(const std::string& name, const nlohmann::json& content);
   // front_frames.txt of a finished session (the timeline of a folder).
   void SetFrames(const std::vector<FrontFrameLine>& frames);
   // front_samples.txt: the frames the sampler sent the back, by window.
@@ -78,7 +80,7 @@ class ViewHub {
   std::string map_json_;
   SnapshotGrid grid_;
   std::optional<Sim3> S_gm_;
-  nlohmann::json status_ = nlohmann::json::object();
+  nlohmann::json files_ = {{"status", nlohmann::json::object()}, {"manager_stats", nlohmann::json::object()}};
   nlohmann::json timeline_ = nlohmann::json::array();  // [t_s, state] at each change of state
   nlohmann::json trail_ = nlohmann::json::array();     // [t_s, x, y, yaw] of the recent poses
   nlohmann::json windows_ = nlohmann::json::array();   // [id, first_s, last_s, S1, S2, S3] per window sent

@@ -210,8 +210,8 @@ TEST(ViewServer, AStalledBrowserLosesItsOldestMessagesAndHoldsUpNoOne) {
   // 20 MB of status for each stream: the stalled one cannot take it.
   const auto t0 = std::chrono::steady_clock::now();
   const nlohmann::json big = {{"filler", std::string(10000, 'x')}};
-  for (int i = 0; i < 2000; ++i) s.hub->SetStatus(big);
-  s.hub->SetStatus({{"summary", "the last one"}});
+  for (int i = 0; i < 2000; ++i) s.hub->SetFile("status", big);
+  s.hub->SetFile("status", {{"summary", "the last one"}});
   const double pushed_s = test::SecondsSince(t0);
   EXPECT_LT(pushed_s, 30.0);  // bounded queues: never waits on a browser (generous under load)
   std::string seen;

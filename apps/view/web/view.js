@@ -14,7 +14,7 @@ window.addEventListener('unhandledrejection', (e) => { $('errors').textContent +
 
 // The map as the page holds it; map deltas apply to it (TopViewDelta).
 const view = { seq: 0, frame: 'map', cell_m: 1, cells: new Set(), kfs: new Map(), submaps: new Map(), links: [], counts: {} };
-const live = { trail: [], timeline: [], windows: [], events: [], poseT: 0, status: {}, grid: null, gridImage: null };
+const live = { trail: [], timeline: [], windows: [], events: [], poseT: 0, status: {}, managerStats: {}, grid: null, gridImage: null };
 const EVENTS = 200;
 const TRAIL = 600;
 const PALETTE = ['#1565c0', '#ef6c00', '#6a1b9a', '#00897b', '#c2185b', '#5d4037', '#7cb342', '#3949ab'];
@@ -77,6 +77,7 @@ async function loadGrid() {
 
 function setState(state) {
   live.status = state.status || {};
+  live.managerStats = state.manager_stats || {};
   live.timeline = state.timeline || [];
   live.windows = state.windows || [];
   live.poseT = state.pose_t || 0;
@@ -289,6 +290,9 @@ function drawDaemon() {
     st.front && st.front.link ? details('robot link', st.front.link) : null,
     st.front && st.front.link && st.front.link.latency_ms ? details('link latency (ms)', st.front.link.latency_ms) : null,
   ];
+  parts.push(details('map at its last save', live.managerStats,
+                     ['last_save', 'components', 'submaps_front', 'submaps_back', 'merges', 'loop_closures',
+                      'points_after_culling', 'rebuilds', 'last_rebuild_seconds']));
   const rings = {};
   for (const r of st.rings || []) rings[r.name] = (r.dropped || 0) + ' dropped';
   parts.push(details('rings', rings));
@@ -299,8 +303,11 @@ function drawDaemon() {
 function drawCounts() {
   const c = view.counts || {};
   for (const k of ['points', 'keyframes', 'submaps', 'components', 'links']) $('count-' + k).textContent = c[k] || 0;
-  $('count-merges').textContent = live.events.filter(([kind]) => kind === 'merged').length;
-  $('count-loops').textContent = live.events.filter(([kind]) => kind === 'loop').length;
+  // From the manager's events when there are (live); else its last save's counts.
+  const counted = (kind, saved) =>
+    live.events.length ? live.events.filter(([k]) => k === kind).length : live.managerStats[saved] || 0;
+  $('count-merges').textContent = counted('merged', 'merges');
+  $('count-loops').textContent = counted('loop', 'loop_closures');
 }
 
 function drawEvents() {
@@ -337,6 +344,7 @@ function follow() {
   });
   es.addEventListener('grid', () => loadGrid().then(redraw));
   es.addEventListener('status', (e) => { live.status = JSON.parse(e.data); redraw(); });
+  es.addEventListener('manager_stats', (e) => { live.managerStats = JSON.parse(e.data); redraw(); });
   es.addEventListener('timeline', (e) => { live.timeline = JSON.parse(e.data); redraw(); });
   es.addEventListener('windows', (e) => { live.windows = JSON.parse(e.data); redraw(); });
   es.addEventListener('events', (e) => {
