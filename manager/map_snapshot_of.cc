@@ -67,6 +67,50 @@ SnapshotLink LinkFromStatusJson(const std::string& status_detail_json) {
   return l;
 }
 
+void FillMapSnapshot(const GlobalMap& map, MapSnapshot* out) {
+  MapSnapshot& s = *out;
+  const std::vector<int> roots = map.ComponentsBySize();
+  auto component_rank = [&](int i) {
+    const int c = map.Component(i);
+    for (size_t k = 0; k < roots.size(); ++k)
+      if (roots[k] == c) return static_cast<int>(k);
+    return -1;
+  };
+  // Fused duplicates are served once (the kept point).
+  std::set<std::pair<int, int64_t>> dups;
+  for (const FusedPoint& f : map.fused()) dups.insert({f.dup, f.dup_point});
+  for (size_t i = 0; i < map.size(); ++i) {
+    const int idx = static_cast<int>(i);
+    const Submap& sm = map.submap(idx);
+    const Sim3& S = map.ToGlobal(idx);
+    const int rank = component_rank(idx);
+    SnapshotSubmap sum;
+    sum.key = ToString(map.Key(idx));
+    sum.component = rank;
+    sum.keyframes = static_cast<int>(sm.keyframes.size());
+    sum.points = static_cast<int64_t>(sm.points.size());
+    if (!sm.keyframes.empty()) {
+      sum.first = sm.keyframes.front().timestamp;
+      sum.last = sm.keyframes.back().timestamp;
+    }
+    sum.S_gl = S;
+    s.submaps.push_back(sum);
+    s.status.keyframes += sum.keyframes;
+    for (const Keyframe& k : sm.keyframes) s.keyframes.push_back({k.id, k.timestamp, sum.key, rank, S.TransformPose(k.T_wc())});
+    if (rank != 0) continue;
+    for (const MapPoint& p : sm.points) {
+      if (dups.count({idx, p.id})) continue;
+      s.points.push_back((S * p.position).cast<float>());
+    }
+  }
+  std::stable_sort(s.keyframes.begin(), s.keyframes.end(),
+                   [](const SnapshotKeyframe& a, const SnapshotKeyframe& b) { return a.component < b.component; });
+  s.status.points = static_cast<int64_t>(s.points.size());
+  if (map.size() > 0)
+    for (const GlobalPose& p : ComputeGlobalTrajectory(map)) s.trajectory.push_back({p.timestamp, p.from_back, p.T_wc});
+  s.status.trajectory_frames = static_cast<int>(s.trajectory.size());  // also of a reloaded, unrebuilt map
+}
+
 SnapshotStatus SnapshotMaker::MakeStatus(const ManagerService& service, const std::string& state,
                                          const std::string& status_json) const {
   SnapshotStatus s = last_;
@@ -101,47 +145,9 @@ std::shared_ptr<const MapSnapshot> SnapshotMaker::Make(const ManagerService& ser
   s.status.json = status_json;
   s.status.link = LinkFromStatusJson(status_json);
 
-  const std::vector<int> roots = map.ComponentsBySize();
-  auto component_rank = [&](int i) {
-    const int c = map.Component(i);
-    for (size_t k = 0; k < roots.size(); ++k)
-      if (roots[k] == c) return static_cast<int>(k);
-    return -1;
-  };
-  // Fused duplicates are served once (the kept point).
-  std::set<std::pair<int, int64_t>> dups;
-  for (const FusedPoint& f : map.fused()) dups.insert({f.dup, f.dup_point});
-  for (size_t i = 0; i < map.size(); ++i) {
-    const int idx = static_cast<int>(i);
-    const Submap& sm = map.submap(idx);
-    const Sim3& S = map.ToGlobal(idx);
-    const int rank = component_rank(idx);
-    SnapshotSubmap sum;
-    sum.key = ToString(map.Key(idx));
-    sum.component = rank;
-    sum.keyframes = static_cast<int>(sm.keyframes.size());
-    sum.points = static_cast<int64_t>(sm.points.size());
-    if (!sm.keyframes.empty()) {
-      sum.first = sm.keyframes.front().timestamp;
-      sum.last = sm.keyframes.back().timestamp;
-    }
-    sum.S_gl = S;
-    s.submaps.push_back(sum);
-    s.status.keyframes += sum.keyframes;
-    for (const Keyframe& k : sm.keyframes) s.keyframes.push_back({k.id, k.timestamp, sum.key, rank, S.TransformPose(k.T_wc())});
+  FillMapSnapshot(map, &s);
+  for (const SnapshotSubmap& sum : s.submaps)
     if (submaps_.insert(sum.key).second) s.events.push_back({"received", sum.key, "", Sim3(), ""});
-    if (rank != 0) continue;
-    for (const MapPoint& p : sm.points) {
-      if (dups.count({idx, p.id})) continue;
-      s.points.push_back((S * p.position).cast<float>());
-    }
-  }
-  std::stable_sort(s.keyframes.begin(), s.keyframes.end(),
-                   [](const SnapshotKeyframe& a, const SnapshotKeyframe& b) { return a.component < b.component; });
-  s.status.points = static_cast<int64_t>(s.points.size());
-  if (map.size() > 0)
-    for (const GlobalPose& p : ComputeGlobalTrajectory(map)) s.trajectory.push_back({p.timestamp, p.from_back, p.T_wc});
-  s.status.trajectory_frames = static_cast<int>(s.trajectory.size());  // also of a reloaded, unrebuilt map
 
   for (const MergeReport& r : st.reports) {
     const std::pair<std::string, std::string> key{ToString(r.back), ToString(r.front)};

@@ -13,6 +13,11 @@
 
 namespace rumi {
 
+// The map part of a snapshot (submaps, keyframes, the main component's
+// points, the global trajectory, the counts in status) from a global map:
+// the manager's after a rebuild, or one loaded from map.rumi (`rumi view`).
+void FillMapSnapshot(const GlobalMap& map, MapSnapshot* s);
+
 class SnapshotMaker {
  public:
   explicit SnapshotMaker(std::string instance) : instance_(std::move(instance)) {}

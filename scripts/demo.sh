@@ -41,6 +41,8 @@ while kill -0 "$rumid" 2>/dev/null; do
     echo "demo: rumi status --state-dir $state"
     build/bin/rumi status --state-dir "$state" || true
     echo
+    view=$(grep -o '"view": "[^"]*"' "$state/status.json" | cut -d'"' -f4 || true)
+    [ -n "$view" ] && echo "demo: watch the map live in a browser: $view (docs/view.md)" && echo
     shown=1
   else
     echo "demo: $(build/bin/rumi status --brief --state-dir "$state" 2>/dev/null || true)"
@@ -55,3 +57,4 @@ fi
 echo
 build/bin/rumi eval session "$state" "$seq" --dataset tum --config "$seq/camera.yaml" --sequence "$scenario"
 echo "demo: the map, trajectories, status.json, metrics.json and plots are in $state"
+echo "demo: to see the finished session in a browser: build/bin/rumi view $state"

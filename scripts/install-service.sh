@@ -36,6 +36,7 @@ if [ "$UNINSTALL" -eq 1 ]; then
   fi
   rm -f "$UNIT"
   for b in "${BINARIES[@]}"; do rm -f "$PREFIX/bin/$b"; done
+  rm -rf "$PREFIX/share/rumi/view"
   rm -rf "$PREFIX/share/doc/rumi"
   if [ "$PURGE" -eq 1 ]; then
     rm -rf /etc/rumi /var/lib/rumi
@@ -55,6 +56,9 @@ if [ "$missing" -eq 1 ]; then scripts/setup.sh "${BINARIES[@]}"; fi
 
 install -d "$PREFIX/bin"
 for b in "${BINARIES[@]}"; do install -m 0755 "build/bin/$b" "$PREFIX/bin/$b"; done
+# The web view's page (docs/view.md): rumid finds it beside its bin/.
+install -d "$PREFIX/share/rumi/view"
+install -m 0644 apps/view/web/index.html apps/view/web/view.js apps/view/web/view.css "$PREFIX/share/rumi/view/"
 install -d "$PREFIX/share/doc/rumi"
 install -m 0644 docs/daemon.md "$PREFIX/share/doc/rumi/daemon.md"
 

@@ -11,6 +11,7 @@ PACKAGES=(
   libopencv-dev libeigen3-dev libceres-dev libspdlog-dev libfmt-dev libboost-dev
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libsystemd-dev libsqlite3-dev libmbedtls-dev
   cyclonedds-dev cyclonedds-tools colmap
+  libcpp-httplib-dev chromium
   libgtest-dev libgmock-dev libbenchmark-dev
   systemd util-linux iproute2
   clang libclang-rt-14-dev

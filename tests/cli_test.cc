@@ -73,6 +73,17 @@ TEST(Cli, GridBadInputIsAClearError) {
   EXPECT_NE(r.out.find("resolution_m"), std::string::npos) << r.out;
 }
 
+// `rumi view` refuses to serve a network address without a token, before it listens.
+TEST(Cli, ViewRefusesANetworkAddressWithoutAToken) {
+  const rumi::TempDir tmp;
+  tmp.Create();
+  Result r = RunRumi("view " + tmp.str() + " --bind 0.0.0.0 --port 0");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("token"), std::string::npos) << r.out;
+  r = RunRumi("view /nonexistent/state");
+  EXPECT_NE(r.code, 0) << r.out;
+}
+
 TEST(Cli, EvalTablePrintsPaperLayout) {
   const rumi::TempDir tmp;
   const fs::path dir = tmp.path();

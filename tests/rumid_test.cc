@@ -25,6 +25,8 @@
 #include "manager/grid/grid_file.h"
 #include "common/testing/temp_dir.h"
 #include "tests/rumi_cli_util.h"
+// Last: it pulls in <resolv.h>, whose _res macro breaks Eigen included after it.
+#include <httplib.h>
 
 namespace rumi {
 namespace {
@@ -357,7 +359,7 @@ TEST_F(Daemon, AChildThatRefusesItsInputEndsRumidWithExit2) {
 // sequence's odometry, the robot's pose source).
 TEST_F(Daemon, ServesTheLiveMapOverDds) {
   const std::string instance = "dds" + std::to_string(::getpid());
-  const std::string cfg = Config("dds", "dds: {enabled: true}\n");
+  const std::string cfg = Config("dds", "dds: {enabled: true}\nview: {port: 0}\n");
   {
     std::string text = Slurp(cfg);
     const std::string loop = "loop: true}";
@@ -400,6 +402,26 @@ TEST_F(Daemon, ServesTheLiveMapOverDds) {
   EXPECT_GE(fine, 20) << Slurp(dir_ / "pose.txt");  // a smooth walk: tracked
   // Its submap is in the saved map by now: poses come in the global frame.
   EXPECT_GT(global, 0) << "no pose in the global frame";
+
+  // The web view (docs/view.md), a DDS client of the manager in rumid: its
+  // address in status.json, the map and the live pose from the manager.
+  const std::string view = Status(State("dds")).value("view", "");
+  ASSERT_EQ(view.rfind("http://127.0.0.1:", 0), 0u) << Status(State("dds")).dump();
+  httplib::Client web(view.substr(0, view.size() - 1));
+  nlohmann::json map, state;
+  EXPECT_TRUE(test::WaitFor(
+      [&] {
+        auto m = web.Get("/api/map"), s = web.Get("/api/state");
+        if (!m || !s || m->status != 200 || s->status != 200) return false;
+        map = nlohmann::json::parse(m->body, nullptr, false);
+        state = nlohmann::json::parse(s->body, nullptr, false);
+        return map.is_object() && state.is_object() && map["counts"].value("keyframes", 0) >= 5 &&
+               !state["trail"].empty() && state["status"].contains("children") && !state["events"].empty();
+      },
+      120, std::chrono::milliseconds(500)))
+      << map.dump().substr(0, 500) << "\n" << state.dump().substr(0, 500);
+  EXPECT_GT(map["counts"].value("points", 0), 100);
+  EXPECT_EQ(web.Post("/api/map", "", "text/plain")->status, 405);
 
   const fs::path grid = dir_ / "dds_grid" / "map.yaml";
   fs::create_directories(grid.parent_path());

@@ -17,5 +17,6 @@ void RegisterQueryCommand(CLI::App* app);   // query_command.cc: the map over DD
 void RegisterCalibrateCommand(CLI::App* app);  // calibrate_command.cc: camera from chessboard photos
 void RegisterRobotSimCommand(CLI::App* app);   // robot_sim_command.cc: a simulated robot on the link
 void RegisterLinkCommand(CLI::App* app);       // link_command.cc: `rumi link keygen`
+void RegisterViewCommand(CLI::App* app);       // view_command.cc: the web view of a session folder
 
 }  // namespace rumi::cli

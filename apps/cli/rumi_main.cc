@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   rumi::cli::RegisterCalibrateCommand(&app);
   rumi::cli::RegisterRobotSimCommand(&app);
   rumi::cli::RegisterLinkCommand(&app);
+  rumi::cli::RegisterViewCommand(&app);
   app.parse_complete_callback([&] { rumi::SetupLogging("rumi", log_level); });
   CLI11_PARSE(app, argc, argv);
   return 0;

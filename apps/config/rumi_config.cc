@@ -38,6 +38,7 @@ RumiConfig Load(ConfigSection root, const std::string& file) {
   ReadSection(root, "dds", &c.dds);
   ReadSection(root, "ipc", &c.ipc);
   ReadSection(root, "daemon", &c.daemon);
+  ReadSection(root, "view", &c.view);
   root.Finish();
   return c;
 }
@@ -89,6 +90,7 @@ std::vector<ConfigSectionInfo> DescribeRumiConfig(const RumiConfig& c) {
   Describe(&out, "dds", c.dds);
   Describe(&out, "ipc", c.ipc);
   Describe(&out, "daemon", c.daemon);
+  Describe(&out, "view", c.view);
   return out;
 }
 

@@ -18,6 +18,7 @@
 //   dds:       DdsOptions                 ipc/dds/dds_options.h
 //   ipc:       IpcOptions                 ipc/channels.h
 //   daemon:    DaemonOptions              apps/config/daemon_options.h
+//   view:      ViewOptions                apps/view/view_options.h
 #include <string>
 #include <vector>
 
@@ -29,6 +30,7 @@
 #include "front/sampler.h"
 #include "ipc/channels.h"
 #include "apps/config/daemon_options.h"
+#include "apps/view/view_options.h"
 #include "ipc/dds/dds_options.h"
 #include "manager/grid/grid_builder.h"
 #include "manager/manager_options.h"
@@ -52,6 +54,7 @@ struct RumiConfig {
   DdsOptions dds;
   IpcOptions ipc;
   DaemonOptions daemon;
+  ViewOptions view;
 };
 
 // Throws ConfigError ("<file>: key 'front.fps': ...") on a missing or

@@ -144,7 +144,7 @@ TEST(RumiConfigDocs, OptionTablesMatchTheDeclaredDefaults) {
   const std::vector<std::pair<std::string, std::string>> tables = {
       {"back.md", "back"},    {"daemon.md", "daemon"},   {"dds.md", "dds"},
       {"front.md", "front"},  {"grid.md", "grid"},       {"ipc.md", "ipc"},
-      {"manager.md", "manager"}, {"robot_link.md", "source"}};
+      {"manager.md", "manager"}, {"robot_link.md", "source"}, {"view.md", "view"}};
   int checked = 0;
   for (const auto& [doc, section] : tables) {
     ASSERT_TRUE(spec.count(section)) << section;

@@ -92,7 +92,7 @@ TEST(RumiConfig, DescribeListsEverySectionAndChangesAreFound) {
     options += s.options.size();
   }
   EXPECT_EQ(sections, (std::set<std::string>{"", "camera", "source", "front", "sampler", "publisher", "back",
-                                             "manager", "grid", "dds", "ipc", "daemon"}));
+                                             "manager", "grid", "dds", "ipc", "daemon", "view"}));
   EXPECT_GT(options, 150u);
   RumiConfig a, b;
   b.log_level = "debug";

@@ -21,6 +21,7 @@
 #include "ipc/segments.h"
 #include "apps/daemon/state_dir.h"
 #include "apps/daemon/status_json.h"
+#include "apps/view/view_session.h"
 
 namespace rumi {
 namespace {
@@ -70,6 +71,7 @@ class Daemon {
 
   int Run() {
     if (const int rc = Prepare(); rc >= 0) return rc;
+    StartView();
     AddChildren();
     spdlog::info("rumid: instance {}, state {}, config {}, source {} {}{}", o_.instance, o_.state_dir,
                  o_.config_path.empty() ? "(defaults)" : o_.config_path, c_.source.kind, c_.source.path,
@@ -147,6 +149,27 @@ class Daemon {
         spdlog::info("rumid: removed {}, drained, left by an earlier run", name);
     }
     return -1;
+  }
+
+  // The web view (docs/view.md): a thread here, a DDS client of the
+  // manager like any other. One that cannot start (its port taken) is a
+  // warning: the daemon runs without it.
+  void StartView() {
+    if (!c_.view.enabled) return;
+    ViewSessionOptions v;
+    v.view = c_.view;
+    v.state_dir = layout_.root;
+    v.live_dds = c_.dds.enabled;
+    v.dds = c_.dds;
+    v.instance = o_.instance;
+    std::string why;
+    view_ = ViewSession::Start(v, &why);
+    if (!view_) {
+      spdlog::warn("rumid: {}; running without the web view", why);
+      return;
+    }
+    facts_.view = view_->Address();
+    spdlog::info("rumid: the map's web view: {}", facts_.view);
   }
 
   int Add(const char* name, std::vector<std::string> argv, bool low_priority,
@@ -343,6 +366,9 @@ class Daemon {
 
   int Stop() {
     const bool by_signal = Stopped();
+    // The view first, while the manager still answers its last DDS call:
+    // its pages see the stream end, and nothing waits on a manager gone.
+    view_.reset();
     facts_.state = facts_.failure.empty() ? "stopping" : "failed";
     systemd_.Stopping();
     if (!facts_.failure.empty())
@@ -398,6 +424,7 @@ class Daemon {
   bool ready_sent_ = false, source_ended_ = false;
   pid_t back_told_ = -1, manager_told_ = -1;  // told the source ended (SIGUSR1)
   Clock::time_point last_watchdog_, last_status_;
+  std::unique_ptr<ViewSession> view_;
 };
 
 }  // namespace

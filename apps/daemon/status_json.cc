@@ -81,6 +81,7 @@ nlohmann::json DaemonStatusJson(const DaemonStatusFacts& f, const Supervisor& su
   st["config"] = f.config_path;
   st["state_dir"] = f.state_dir;
   if (!f.failure.empty()) st["failure"] = f.failure;
+  if (!f.view.empty()) st["view"] = f.view;
   nlohmann::json children = nlohmann::json::array();
   for (int i = 0; i < static_cast<int>(sup.size()); ++i) children.push_back(ChildJson(sup.info(i)));
   st["children"] = children;

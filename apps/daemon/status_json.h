@@ -19,6 +19,7 @@ struct DaemonStatusFacts {
   std::chrono::steady_clock::time_point started_at;
   double status_interval_s = 0;
   std::string source;   // "kind path", for a front that has not said its own
+  std::string view;     // the web view's address; "" when it is off
   int front = -1, back = -1, manager = -1;  // children in the supervisor
 };
 

@@ -110,12 +110,14 @@ bool MapClient::Open(std::string* why) {
   const dds_entity_t rep = CreateTopic(pp, &rumi_dds_Reply_desc, t.reply, why);
   const dds_entity_t st = CreateTopic(pp, &rumi_dds_Status_desc, t.status, why);
   const dds_entity_t po = CreateTopic(pp, &rumi_dds_PoseSample_desc, t.pose, why);
-  if (req < 0 || rep < 0 || st < 0 || po < 0) return false;
+  const dds_entity_t ev = CreateTopic(pp, &rumi_dds_MapEvent_desc, t.events, why);
+  if (req < 0 || rep < 0 || st < 0 || po < 0 || ev < 0) return false;
   request_w_ = CreateWriter(pp, req, DdsQosKind::kRpc, 1.0, why);
   reply_r_ = CreateReader(pp, rep, DdsQosKind::kRpc, why);
   status_r_ = CreateReader(pp, st, DdsQosKind::kState, why);
   pose_r_ = CreateReader(pp, po, DdsQosKind::kStream, why);
-  if (request_w_ <= 0 || reply_r_ <= 0 || status_r_ <= 0 || pose_r_ <= 0) return false;
+  events_r_ = CreateReader(pp, ev, DdsQosKind::kEvents, why);
+  if (request_w_ <= 0 || reply_r_ <= 0 || status_r_ <= 0 || pose_r_ <= 0 || events_r_ <= 0) return false;
   reply_ws_ = dds_create_waitset(pp);
   const dds_entity_t cond = dds_create_readcondition(reply_r_, DDS_ANY_STATE);
   if (reply_ws_ < 0 || cond < 0 || dds_waitset_attach(reply_ws_, cond, 0) < 0) {
@@ -237,6 +239,22 @@ bool MapClient::FollowPose(double timeout_s, const std::function<bool(const Live
     }
     if (Since(last) >= timeout_s) return false;
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+}
+
+std::vector<SnapshotEvent> MapClient::TakeEvents() {
+  std::vector<SnapshotEvent> out;
+  for (;;) {
+    void* samples[16] = {nullptr};
+    dds_sample_info_t info[16];
+    const dds_return_t n = dds_take(events_r_, samples, info, 16, 16);
+    if (n <= 0) return out;
+    for (dds_return_t i = 0; i < n; ++i) {
+      if (!info[i].valid_data) continue;
+      const auto& d = *static_cast<const rumi_dds_MapEvent*>(samples[i]);
+      out.push_back({Str(d.kind), Str(d.submap), Str(d.other), Sim3From(d.sim3), Str(d.detail)});
+    }
+    dds_return_loan(events_r_, samples, n);
   }
 }
 

@@ -49,6 +49,10 @@ class MapClient {
   // Calls f for each pose sample until f returns false (true), or until no
   // pose came for timeout_s (false).
   bool FollowPose(double timeout_s, const std::function<bool(const LivePose&)>& f);
+  // The map's events (received, merged, rejected, loop, culled, saved) come
+  // since the last call, without waiting; a client that connects late gets
+  // the server's last 64 (transient-local).
+  std::vector<SnapshotEvent> TakeEvents();
 
   uint64_t client_id() const { return client_id_; }
 
@@ -60,7 +64,7 @@ class MapClient {
   DdsOptions options_;
   std::string instance_;
   DdsEntity participant_;
-  dds_entity_t request_w_ = 0, reply_r_ = 0, status_r_ = 0, pose_r_ = 0;
+  dds_entity_t request_w_ = 0, reply_r_ = 0, status_r_ = 0, pose_r_ = 0, events_r_ = 0;
   dds_entity_t reply_ws_ = 0;  // wakes Call when a reply sample is there
   uint64_t client_id_ = 0;
   uint64_t next_request_ = 1;
