@@ -20,6 +20,17 @@ FrontOptions SyncOptions() {
   return o;
 }
 
+// A generated smooth walk at 320x240 (the rat robot's camera).
+SynthOptions QvgaSmooth(uint64_t seed, int frames) {
+  SynthOptions so;
+  so.scenario = SynthScenario::kSmooth;
+  so.seed = seed;
+  so.frames = frames;
+  so.width = 320;
+  so.height = 240;
+  return so;
+}
+
 // Consistency of an exported submap: ids, links, sizes, observations.
 void ExpectValidSubmap(const Submap& s) {
   ASSERT_GE(s.keyframes.size(), 2u);
@@ -116,13 +127,7 @@ TEST(Front, TracksKittiStretch) {
 // starts at the reference frame; without init_backfill they stay
 // unposed. The backfilled poses are as good as the tracked ones.
 TEST(Front, FramesBeforeTheFirstMapArePosedOnIt) {
-  SynthOptions so;
-  so.scenario = SynthScenario::kSmooth;
-  so.seed = 2;
-  so.frames = 60;
-  so.width = 320;
-  so.height = 240;
-  const SyntheticSequence seq(so);
+  const SyntheticSequence seq(QvgaSmooth(2, 60));
   auto run = [&](bool backfill) {
     FrontOptions o = SyncOptions();
     o.init_backfill = backfill;
@@ -167,13 +172,7 @@ TEST(Front, FramesBeforeTheFirstMapArePosedOnIt) {
 // keyframes and points (containers keyed by pointer once iterated in heap
 // order: the same build gave different maps run to run).
 TEST(Front, ResultDoesNotDependOnTheHeapLayout) {
-  SynthOptions so;
-  so.scenario = SynthScenario::kSmooth;
-  so.seed = 3;
-  so.frames = 90;
-  so.width = 320;
-  so.height = 240;
-  const SyntheticSequence seq(so);
+  const SyntheticSequence seq(QvgaSmooth(3, 90));
   std::vector<cv::Mat> images;
   for (int i = 0; i < seq.num_frames(); ++i) images.push_back(seq.Render(i));
   auto run = [&] {
