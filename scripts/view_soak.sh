@@ -37,8 +37,9 @@ prev=0
 for m in $(seq 1 "$minutes"); do
   sleep 60
   kill -0 "$soak" 2>/dev/null || break
+  [ "$m" -lt "$minutes" ] || break  # the soak stops rumid now
   now=$(stat -c %s "$out/events.sse" 2>/dev/null || echo 0)
-  map=$(curl -s "$url/api/map" | wc -c)
+  map=$( (curl -s "$url/api/map" || true) | wc -c)
   page=- blank=-
   if [ "$m" -eq 1 ] || [ $(( m % 5 )) -eq 0 ] || [ "$m" -eq "$((minutes - 1))" ]; then
     page=$(load_ms "$url/?live=0")
