@@ -108,6 +108,11 @@ class FrontPublisher {
                const std::function<Submap()>& snapshot);
   // A frame the replay skipped: logged as lost, submap -1, skipped = 1.
   void OnSkipped(Timestamp t);
+  // Tracking thread, between frames: hands over what the last frame staged
+  // when its non-blocking handoff found the publisher thread busy (it waits
+  // for the lock; a source that pauses need not hold items until its next
+  // frame).
+  void Idle() { Handoff(true); }
 
   // End of stream (after Front::Finish): copies the last finished submaps,
   // flushes the sampler, sends everything, waits for the consumers (bounded;

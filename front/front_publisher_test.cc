@@ -210,9 +210,14 @@ TEST(FrontPublisher, ShipsWindowsSubmapsAndWritesFiles) {
       // one is still queued).
       ++resends;
       const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+      // Idle: the frame's non-blocking handoff may have found the publisher
+      // thread holding the lock (a loaded CI machine, stop 61), leaving the
+      // resend staged until the next frame.
       while ((consumers.resends_of(it->second.first) < it->second.second || pub.stats().resends_sent < resends) &&
-             std::chrono::steady_clock::now() < until)
+             std::chrono::steady_clock::now() < until) {
+        pub.Idle();
         std::this_thread::sleep_for(std::chrono::milliseconds(2));
+      }
     }
   }
   EXPECT_EQ(ff.snapshots, 5);
