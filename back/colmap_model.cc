@@ -6,6 +6,8 @@
 #include <sstream>
 #include <type_traits>
 
+#include "common/atomic_file.h"
+
 namespace rumi {
 
 int ColmapCameraNumParams(int32_t model_id) {
@@ -72,19 +74,7 @@ class Reader {
 };
 
 bool LoadFile(const std::string& path, std::string* data, std::string* error) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    *error = path + ": cannot open";
-    return false;
-  }
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) {
-    *error = path + ": read error";
-    return false;
-  }
-  *data = ss.str();
-  return true;
+  return ReadFileText(path, data, error);
 }
 
 bool ReadCameras(Reader& r, ColmapModel* m) {

@@ -130,7 +130,9 @@ bool WriteFileAtomically(const std::string& path, const void* data, size_t size,
   return w.Commit(why);
 }
 
-bool ReadFileBytes(const std::string& path, std::vector<uint8_t>* out, std::string* why) {
+namespace {
+template <typename Buffer>
+bool ReadWhole(const std::string& path, Buffer* out, std::string* why) {
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     if (why) *why = Errno("cannot open", path);
@@ -142,6 +144,15 @@ bool ReadFileBytes(const std::string& path, std::vector<uint8_t>* out, std::stri
     return false;
   }
   return true;
+}
+}  // namespace
+
+bool ReadFileBytes(const std::string& path, std::vector<uint8_t>* out, std::string* why) {
+  return ReadWhole(path, out, why);
+}
+
+bool ReadFileText(const std::string& path, std::string* out, std::string* why) {
+  return ReadWhole(path, out, why);
 }
 
 bool CheckRegularFile(const std::string& path, uint64_t max_bytes, std::string* why) {

@@ -71,8 +71,10 @@ class AtomicFileWriter::View {
   const uint8_t* data_;
 };
 
-// Whole file into *out; false with *why when it cannot be read.
+// Whole file into *out; false with *why when it cannot be read (the one
+// file reader: a text file, a model, a map file).
 bool ReadFileBytes(const std::string& path, std::vector<uint8_t>* out, std::string* why);
+bool ReadFileText(const std::string& path, std::string* out, std::string* why);
 
 // A file a reader may take in whole: it exists, is a regular file (not a
 // device, a pipe or a folder: `/dev/zero` would be read for ever) and holds

@@ -49,6 +49,21 @@ TEST_F(AtomicFile, WritesReplacesAndKeepsItsMode) {
   EXPECT_NE(why.find("none/b"), std::string::npos) << why;
 }
 
+// Text and bytes, binary-safe; a missing file names itself.
+TEST_F(AtomicFile, ReadsWholeFilesAndSaysWhyNot) {
+  std::string why, text;
+  const std::string content("a\0b\r\nc", 6);
+  ASSERT_TRUE(WriteFileAtomically(P("t"), content, &why)) << why;
+  ASSERT_TRUE(ReadFileText(P("t"), &text, &why)) << why;
+  EXPECT_EQ(text, content);
+  std::vector<uint8_t> bytes;
+  ASSERT_TRUE(ReadFileBytes(P("t"), &bytes, &why)) << why;
+  EXPECT_EQ(std::string(bytes.begin(), bytes.end()), content);
+  EXPECT_FALSE(ReadFileText(P("missing"), &text, &why));
+  EXPECT_NE(why.find("missing"), std::string::npos) << why;
+  EXPECT_NE(why.find("cannot open"), std::string::npos) << why;
+}
+
 // Pieces appended, a header patched at the end from a checksum over what
 // was written (read back through the mapping), then committed.
 TEST_F(AtomicFile, AWriterInPiecesPatchesItsHeader) {

@@ -122,11 +122,9 @@ void ApplyConfigSets(ConfigSection* root, const std::vector<std::string>& sets) 
 ConfigSection LoadConfigFile(const std::string& path) {
   std::string why;
   if (!CheckRegularFile(path, kMaxConfigBytes, &why)) throw ConfigError(path + ": cannot read config file: " + why);
-  std::ifstream in(path);
-  if (!in) throw ConfigError(path + ": cannot open config file");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return LoadConfigString(ss.str(), path);
+  std::string text;
+  if (!ReadFileText(path, &text, &why)) throw ConfigError(path + ": cannot read config file: " + why);
+  return LoadConfigString(text, path);
 }
 
 namespace {

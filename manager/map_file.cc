@@ -90,10 +90,6 @@ void PutLoops(Bytes* b, const LoopMemory& m) {
   }
 }
 
-std::string Errno(const std::string& what, const std::string& path) {
-  return what + " '" + path + "': " + std::strerror(errno);
-}
-
 }  // namespace
 
 const SubmapSerializer& DefaultSubmapSerializer() {
@@ -244,12 +240,8 @@ void ReadLoops(BufferReader* b, LoopMemory* m) {
 
 bool LoadGlobalMap(const std::string& path, GlobalMap* map, std::string* why,
                    const SubmapSerializer& serializer) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    if (why) *why = Errno("cannot open global map file", path);
-    return false;
-  }
-  const std::vector<uint8_t> data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::vector<uint8_t> data;
+  if (!ReadFileBytes(path, &data, why)) return false;
   try {
     BufferReader r(data.data(), data.size(), "global map file '" + path + "'");
     if (data.size() < sizeof(kMagic) || std::memcmp(data.data(), kMagic, sizeof(kMagic)) != 0)

@@ -18,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include "common/atomic_file.h"
 #include "common/dataset.h"
 #include "common/eval_table.h"
 #include "common/logging.h"
@@ -503,10 +504,9 @@ int RunEval(const EvalRunArgs& a) {
               << Rmse(r.merged.ate_rmse) << ", merges " << r.counts.merges << ", back windows "
               << r.counts.back_windows << " -> " << (run_dir / "metrics.json").string() << "\n";
     for (const std::string& w : r.warnings) std::cout << "WARNING run " << k << ": " << w << "\n";
-    std::ifstream in(run_dir / "metrics.json");
-    std::stringstream ss;
-    ss << in.rdbuf();
-    row.runs.push_back(ParseRunMetrics(ss.str(), (run_dir / "metrics.json").string()));
+    std::string text, problem;
+    if (!ReadFileText((run_dir / "metrics.json").string(), &text, &problem)) throw std::runtime_error(problem);
+    row.runs.push_back(ParseRunMetrics(text, (run_dir / "metrics.json").string()));
   }
   std::cout << "\n" << FormatEvalTableMarkdown({row});
   return 0;

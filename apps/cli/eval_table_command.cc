@@ -5,6 +5,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "common/atomic_file.h"
 #include "common/eval_table.h"
 #include "apps/cli/commands.h"
 
@@ -14,11 +15,9 @@ namespace fs = std::filesystem;
 namespace {
 
 std::string ReadText(const fs::path& p) {
-  std::ifstream in(p);
-  if (!in) throw std::runtime_error(p.string() + ": cannot read");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+  std::string text, why;
+  if (!ReadFileText(p.string(), &text, &why)) throw std::runtime_error(why);
+  return text;
 }
 
 // A run dir holds metrics.json itself or one run_* folder per run.

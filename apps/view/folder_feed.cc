@@ -7,6 +7,7 @@
 #include <functional>
 #include <sstream>
 
+#include "common/atomic_file.h"
 #include "ipc/daemon_status.h"
 #include "manager/grid/grid_file.h"
 #include "manager/map_file.h"
@@ -71,11 +72,8 @@ bool FolderFeed::Poll(std::string* why) {
       MapSnapshot s;
       FillMapSnapshot(map, &s);
       SnapshotGrid g;
-      std::ifstream yaml(dir / "grid.yaml");
-      std::ostringstream text;
-      text << yaml.rdbuf();
-      g.yaml = text.str();
-      g.ok = yaml && ReadMapServerGrid((dir / "grid.yaml").string(), &g.cells, &w);
+      g.ok = ReadFileText((dir / "grid.yaml").string(), &g.yaml, &w) &&
+             ReadMapServerGrid((dir / "grid.yaml").string(), &g.cells, &w);
       hub_->SetMap(s, g);
     } else {
       seen_.erase((dir / "map.rumi").string());  // a save in progress: read it next time

@@ -8,6 +8,7 @@
 #include <map>
 #include <sstream>
 
+#include "common/atomic_file.h"
 #include "common/process/subprocess.h"
 
 namespace rumi {
@@ -22,14 +23,6 @@ const std::map<std::string, std::pair<std::string, std::string>> kFiles = {
     {"/view.js", {"view.js", "text/javascript; charset=utf-8"}},
     {"/view.css", {"view.css", "text/css; charset=utf-8"}}};
 
-bool ReadWhole(const fs::path& p, std::string* out) {
-  std::ifstream in(p, std::ios::binary);
-  if (!in) return false;
-  std::ostringstream s;
-  s << in.rdbuf();
-  *out = s.str();
-  return true;
-}
 
 void Refuse(httplib::Response& res, int status, const std::string& reason) {
   res.status = status;
@@ -84,9 +77,9 @@ bool ResolveViewToken(const ViewOptions& o, const std::string& state_dir, std::s
   if (!o.token.empty() || o.token_file.empty()) return true;
   fs::path p = o.token_file;
   if (p.is_relative()) p = fs::path(state_dir) / p;
-  std::string text;
-  if (!ReadWhole(p, &text)) {
-    *why = "view.token_file " + p.string() + " cannot be read";
+  std::string text, problem;
+  if (!ReadFileText(p.string(), &text, &problem)) {
+    *why = "view.token_file: " + problem;
     return false;
   }
   *token = text.substr(0, text.find_first_of("\r\n"));
@@ -111,8 +104,8 @@ std::unique_ptr<ViewServer> ViewServer::Start(const ViewOptions& o, const std::s
   }
   std::map<std::string, std::string> files;
   for (const auto& [route, file] : kFiles)
-    if (!ReadWhole(fs::path(web_dir) / file.first, &files[route])) {
-      *why = "view: the page's file " + (fs::path(web_dir) / file.first).string() + " cannot be read (view.web_dir)";
+    if (!ReadFileText((fs::path(web_dir) / file.first).string(), &files[route], &problem)) {
+      *why = "view: the page's file: " + problem + " (view.web_dir)";
       return nullptr;
     }
   std::unique_ptr<ViewServer> s(new ViewServer());

@@ -11,6 +11,7 @@
 #include <iterator>
 #include <thread>
 
+#include "common/atomic_file.h"
 #include "common/process/subprocess.h"
 
 namespace rumi::test {
@@ -21,8 +22,9 @@ std::string BinPath(const std::string& name) {
 }
 
 std::string Slurp(const std::filesystem::path& p) {
-  std::ifstream in(p);
-  return std::string(std::istreambuf_iterator<char>(in), {});
+  std::string text;
+  ReadFileText(p.string(), &text, nullptr);  // a file not there: empty
+  return text;
 }
 
 double SecondsSince(std::chrono::steady_clock::time_point t) {
