@@ -14,7 +14,7 @@ window.addEventListener('unhandledrejection', (e) => { $('errors').textContent +
 
 // The map as the page holds it; map deltas apply to it (TopViewDelta).
 const view = { seq: 0, frame: 'map', cell_m: 1, cells: new Set(), kfs: new Map(), submaps: new Map(), links: [], counts: {} };
-const live = { trail: [], timeline: [], windows: [], events: [], poseT: 0, status: {}, managerStats: {}, grid: null, gridImage: null };
+const live = { trail: [], timeline: [], timelineSeq: 0, windows: [], events: [], poseT: 0, status: {}, managerStats: {}, grid: null, gridImage: null };
 const EVENTS = 200;
 const TRAIL = 600;
 const PALETTE = ['#1565c0', '#ef6c00', '#6a1b9a', '#00897b', '#c2185b', '#5d4037', '#7cb342', '#3949ab'];
@@ -43,6 +43,21 @@ async function getJson(path) {
 }
 
 async function loadMap() { applyMap(await getJson('/api/map')); }
+
+// A timeline delta (TimelineDelta: keep, add) applies to the timeline of its
+// base only; false: fetch the whole timeline.
+function applyTimeline(d) {
+  if (d.base !== live.timelineSeq) return false;
+  live.timeline.length = Math.min(live.timeline.length, d.keep);
+  live.timeline.push(...d.add);
+  live.timelineSeq = d.seq;
+  return true;
+}
+
+async function loadTimeline() {
+  const t = await getJson('/api/timeline');
+  live.timeline = t.timeline; live.timelineSeq = t.seq;
+}
 
 // map_server's PGM (254 free, 0 occupied, 205 unknown) as an image, drawn as it is.
 async function loadGrid() {
@@ -79,6 +94,7 @@ function setState(state) {
   live.status = state.status || {};
   live.managerStats = state.manager_stats || {};
   live.timeline = state.timeline || [];
+  live.timelineSeq = state.timeline_seq || 0;
   live.windows = state.windows || [];
   live.poseT = state.pose_t || 0;
   live.events = state.events || [];
@@ -290,9 +306,15 @@ function drawDaemon() {
     st.front && st.front.link ? details('robot link', st.front.link) : null,
     st.front && st.front.link && st.front.link.latency_ms ? details('link latency (ms)', st.front.link.latency_ms) : null,
   ];
-  parts.push(details('map at its last save', live.managerStats,
-                     ['last_save', 'components', 'submaps_front', 'submaps_back', 'merges', 'loop_closures',
-                      'points_after_culling', 'rebuilds', 'last_rebuild_seconds']));
+  const saved = details('map at its last save', live.managerStats,
+                        ['last_save', 'components', 'submaps_front', 'submaps_back', 'merges', 'loop_closures',
+                         'points_after_culling', 'rebuilds', 'last_rebuild_seconds']);
+  if (saved) {  // the merge reports and the loops: fetched when asked, not streamed
+    const a = document.createElement('a');
+    a.href = api('/api/manager_stats'); a.textContent = 'all of manager_stats.json'; a.id = 'manager-stats-link';
+    saved.append(a);
+  }
+  parts.push(saved);
   const rings = {};
   for (const r of st.rings || []) rings[r.name] = (r.dropped || 0) + ' dropped';
   parts.push(details('rings', rings));
@@ -345,7 +367,10 @@ function follow() {
   es.addEventListener('grid', () => loadGrid().then(redraw));
   es.addEventListener('status', (e) => { live.status = JSON.parse(e.data); redraw(); });
   es.addEventListener('manager_stats', (e) => { live.managerStats = JSON.parse(e.data); redraw(); });
-  es.addEventListener('timeline', (e) => { live.timeline = JSON.parse(e.data); redraw(); });
+  es.addEventListener('timeline', (e) => {
+    if (!applyTimeline(JSON.parse(e.data))) loadTimeline().then(redraw);
+    redraw();
+  });
   es.addEventListener('windows', (e) => { live.windows = JSON.parse(e.data); redraw(); });
   es.addEventListener('events', (e) => {
     live.events.push(...JSON.parse(e.data));
@@ -356,7 +381,7 @@ function follow() {
     const p = JSON.parse(e.data);
     live.poseT = Math.max(live.poseT, p.t);
     const last = live.timeline[live.timeline.length - 1];
-    if (!last || last[1] !== p.state) live.timeline.push([p.t, p.state]);
+    if (!last || last[1] !== p.state) { live.timeline.push([p.t, p.state]); live.timelineSeq++; }  // as the hub
     if (p.x !== undefined) {
       live.trail.push(p);
       if (live.trail.length > TRAIL) live.trail.splice(0, live.trail.length - TRAIL);
