@@ -325,11 +325,15 @@ function drawDaemon() {
 function drawCounts() {
   const c = view.counts || {};
   for (const k of ['points', 'keyframes', 'submaps', 'components', 'links']) $('count-' + k).textContent = c[k] || 0;
-  // From the manager's events when there are (live); else its last save's counts.
-  const counted = (kind, saved) =>
-    live.events.length ? live.events.filter(([k]) => k === kind).length : live.managerStats[saved] || 0;
-  $('count-merges').textContent = counted('merged', 'merges');
-  $('count-loops').textContent = counted('loop', 'loop_closures');
+  // The manager's own count in rumid's status.json (what `rumi status` says;
+  // the events kept are the last 200 only); else its events (live); else
+  // its last save's counts.
+  const manager = (live.status || {}).manager || {};
+  const counted = (live_key, kind, saved) =>
+    manager[live_key] !== undefined ? manager[live_key]
+      : live.events.length ? live.events.filter(([k]) => k === kind).length : live.managerStats[saved] || 0;
+  $('count-merges').textContent = counted('merges', 'merged', 'merges');
+  $('count-loops').textContent = counted('loops', 'loop', 'loop_closures');
 }
 
 function drawEvents() {
