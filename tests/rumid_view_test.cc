@@ -6,9 +6,10 @@
 // loads with no script error, its pose trail grows between two loads, and
 // once the back's submap is merged the page shows the components and merges
 // of `rumi status --json` taken at the same state, and the back submap in
-// the main map. Once the first window is sent the front is paused
-// (SIGSTOP): the back has the cores to itself, and nothing changes the map
-// after its merge. Every wait is a bounded poll for a condition (a loaded
+// the main map; while the back builds, the page says which window and at
+// what stage. Once the first window is sent the front is paused (SIGSTOP):
+// the back has the cores to itself, and nothing changes the map after its
+// merge. Every wait is a bounded poll for a condition (a loaded
 // 2-core CI): no sleep decides anything.
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -152,14 +153,38 @@ TEST(RumidView, ThePageFollowsTheSessionThroughTheBacksMerge) {
   front = test::StatusChild(test::ReadStatus(state), "rumi-front").value("pid", -1);
   ASSERT_GT(front, 0) << why();
   ASSERT_EQ(::kill(front, SIGSTOP), 0);
-  ASSERT_TRUE(test::WaitFor(
-      [&] {
-        const nlohmann::json m = section("manager"), b = section("back");
-        return m.value("submaps_back", 0) >= 1 && m.value("merges", 0) >= 1 && b.value("queue", 1) == 0 &&
-               !b.contains("building");
-      },
-      900, std::chrono::milliseconds(500)))
-      << why();
+  auto merged = [&] {
+    const nlohmann::json m = section("manager"), b = section("back");
+    return m.value("submaps_back", 0) >= 1 && m.value("merges", 0) >= 1 && b.value("queue", 1) == 0 &&
+           !b.contains("building");
+  };
+  // Meanwhile the page says which window the back builds (status.json's
+  // back.building): loaded while two statuses, before and after, say the
+  // same window is at work and the view serves that status.
+  auto at_work = [](const nlohmann::json& back) {
+    return back.contains("building") ? back["building"].value("window", int64_t{-1}) : int64_t{-1};
+  };
+  std::string during;
+  int64_t window = -1;
+  while (during.empty() && test::WaitFor([&] { return at_work(section("back")) >= 0 || merged(); }, 900,
+                                         std::chrono::milliseconds(100))) {
+    window = at_work(section("back"));
+    if (window < 0) break;  // built already
+    const bool served = test::WaitFor(
+        [&] {
+          const nlohmann::json st = api("/api/state");
+          return st.is_object() && at_work(st["status"].value("back", nlohmann::json::object())) == window;
+        },
+        30, std::chrono::milliseconds(200));
+    if (!served) continue;
+    during = load();
+    if (at_work(section("back")) != window) during.clear();
+  }
+  ASSERT_FALSE(during.empty()) << "the page never loaded while the back built its window" << why();
+  EXPECT_EQ(ElementText(during, "back-building").rfind("the back builds window " + std::to_string(window) + ": ", 0),
+            0u)
+      << ElementText(during, "back-building");
+  ASSERT_TRUE(test::WaitFor(merged, 900, std::chrono::milliseconds(500))) << why();
 
   // 4. The page against `rumi status --json` at one state: the view caught
   // up with the manager (its map's components, the status it serves), the

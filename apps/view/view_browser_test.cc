@@ -93,7 +93,10 @@ void WriteSession(const fs::path& dir) {
         {{{"name", "rumi-front"}, {"state", "exited"}, {"restarts", 1}},
          {{"name", "rumi-back"}, {"state", "exited"}, {"restarts", 0}},
          {{"name", "rumi-manager"}, {"state", "exited"}, {"restarts", 0}}}},
-       {"back", {{"queue", 0}, {"windows_built", 1}}},
+       {"back",
+        {{"queue", 1},
+         {"windows_built", 1},
+         {"building", {{"window", 7}, {"stage", "mapper"}, {"elapsed_s", 12.4}, {"frames", 36}}}}},
        {"rings", {{{"name", "rumi_browser_windows"}, {"dropped", 2}}}}});
   const SyntheticScene scene = Scene();
   std::ofstream(dir / "manager_stats.json")
@@ -182,6 +185,8 @@ TEST(ViewBrowser, ThePageShowsWhatTheMapFileHolds) {
   // tracking, lost, tracking, lost, tracking, end from front_frames.txt; then tracking, lost live.
   EXPECT_EQ(test::ElementText(dom, "timeline-count"), "8");
   EXPECT_EQ(test::ElementText(dom, "windows-count"), "1");
+  // The window the back builds (status.json's back.building), the one sent on the timeline.
+  EXPECT_EQ(test::ElementText(dom, "back-building"), "the back builds window 7: mapper, 12 s (36 frames)");
   EXPECT_EQ(test::ElementText(dom, "live"), "offline");
   EXPECT_EQ(test::ElementText(dom, "count-merges"), "1");
   EXPECT_EQ(test::ElementText(dom, "count-loops"), "1");

@@ -221,6 +221,15 @@ function drawTop() {
   legend.append(note);
 }
 
+// The window the back builds now (status.json's back.building: window,
+// stage, elapsed_s, frames), or null.
+function building() {
+  const b = ((live.status || {}).back || {}).building;
+  return b && b.window !== undefined ? b : null;
+}
+const buildingText = (b) =>
+  'window ' + b.window + ': ' + b.stage + ', ' + (b.elapsed_s || 0).toFixed(0) + ' s' + (b.frames ? ' (' + b.frames + ' frames)' : '');
+
 // ---- the timeline: tracking state per frame, back and front submaps ----
 function drawTimeline() {
   const canvas = $('timeline');
@@ -237,12 +246,16 @@ function drawTimeline() {
   const X = (t) => 44 + (t - t0) / (t1 - t0) * (canvas.width - 54);
   ctx.font = '11px sans-serif'; ctx.fillStyle = '#555';
   ctx.fillText('state', 2, 20); ctx.fillText('window', 2, 52); ctx.fillText('back', 2, 84); ctx.fillText('front', 2, 116);
-  // Each window sent to the back over the frames it holds, and its samples by set.
+  // Each window sent to the back over the frames it holds, and its samples
+  // by set; the one the back builds now in orange, with its stage.
+  const now = building();
   for (const [id, first, last, s1, s2, s3] of live.windows) {
-    ctx.fillStyle = '#00897b';
+    const built = now && now.window === id;
+    ctx.fillStyle = built ? '#f57c00' : '#00897b';
     ctx.fillRect(X(first), 40, Math.max(2, X(last) - X(first)), 18);
     ctx.fillStyle = '#fff';
-    ctx.fillText('#' + id + ' S1 ' + s1 + ' S2 ' + s2 + ' S3 ' + s3, X(first) + 3, 53);
+    ctx.fillText('#' + id + ' S1 ' + s1 + ' S2 ' + s2 + ' S3 ' + s3 +
+                 (built ? ' · ' + now.stage + ' ' + (now.elapsed_s || 0).toFixed(0) + ' s' : ''), X(first) + 3, 53);
   }
   for (let i = 0; i < live.timeline.length; i++) {
     const [t, state] = live.timeline[i];
@@ -290,6 +303,8 @@ function drawDaemon() {
   badge.textContent = state;
   badge.className = 'badge ' + ({ running: 'ok', finishing: 'warn', starting: 'warn', failed: 'bad' }[state] || '');
   $('daemon-summary').textContent = st.summary || (st.updated ? 'updated ' + st.updated : 'no daemon status in this folder');
+  const b = building();
+  $('back-building').textContent = b ? 'the back builds ' + buildingText(b) : st.back ? 'the back builds nothing now' : '';
   const body = $('children').tBodies[0];
   body.textContent = '';
   for (const c of st.children || []) {
