@@ -138,12 +138,23 @@ TEST(ViewBrowser, ThePageShowsWhatTheMapFileHolds) {
   std::thread browser([&] { r = test::DumpDom(base, session->Address(), log, 300); });
   // The page loaded the session and follows the live stream.
   const bool following = test::WaitFor([&] { return session->hub().counters().clients >= 1; }, 240);
-  // Live: the pose moves (20 poses tracked, then 10 lost) and the map grows
-  // (the manager saved again: one more front submap joined).
+  // Live: front_frames.txt grows (5 frames lost, 5 tracked): the page gets
+  // the timeline's change (keep 5, add lost, tracking, end), once the feed
+  // read it...
   const SyntheticScene scene = Scene();
+  {
+    std::ofstream frames(dir / "front" / "front_frames.txt", std::ios::app);
+    for (int i = 1; i <= 10; ++i)
+      frames << std::fixed << std::setprecision(9) << NsToSeconds(scene.timestamps.back() + i * 33'000'000LL) << " "
+             << (i <= 5 ? "lost" : "tracking") << " 4\n";
+  }
+  const bool grown = test::WaitFor(
+      [&] { return nlohmann::json::parse(session->hub().TimelineJson())["timeline"].size() == 8; }, 60);
+  // ...then the pose moves (20 poses tracked, then 10 lost) and the map
+  // grows (the manager saved again: one more front submap joined).
   for (int i = 0; i < 30; ++i) {
     LivePose p;
-    p.timestamp = scene.timestamps.back() + (i + 1) * 100'000'000LL;
+    p.timestamp = scene.timestamps.back() + 1'000'000'000LL + i * 100'000'000LL;
     p.state = i < 20 ? 1 : 3;
     p.in_global = true;
     p.T_wc = scene.T_wc[size_t(60 + i)];
@@ -160,6 +171,7 @@ TEST(ViewBrowser, ThePageShowsWhatTheMapFileHolds) {
   browser.join();
   ASSERT_TRUE(following) << "the page never opened its live stream; chromium's log:\n" << test::Slurp(log);
   ASSERT_TRUE(updated);
+  ASSERT_TRUE(grown) << session->hub().TimelineJson();
   ASSERT_EQ(r.code, 0) << "chromium failed; its log:\n" << test::Slurp(log);
   const std::string& dom = r.out;
   ASSERT_EQ(test::ElementText(dom, "loaded"), "yes") << dom.substr(0, 4000) << "\n" << test::Slurp(log);
@@ -182,8 +194,10 @@ TEST(ViewBrowser, ThePageShowsWhatTheMapFileHolds) {
   EXPECT_EQ(test::ElementText(dom, "drawn-grid"), "yes");
   EXPECT_EQ(test::ElementText(dom, "frame"), "grid");
   EXPECT_EQ(test::ElementText(dom, "drawn-trail"), "30");  // every live pose (15 Hz at most: they are 10 Hz)
-  // tracking, lost, tracking, lost, tracking, end from front_frames.txt; then tracking, lost live.
-  EXPECT_EQ(test::ElementText(dom, "timeline-count"), "8");
+  // tracking, lost, tracking, lost, tracking, end from front_frames.txt as
+  // the page loaded it; lost, tracking, end as it grew (a delta); then
+  // tracking, lost live.
+  EXPECT_EQ(test::ElementText(dom, "timeline-count"), "10");
   EXPECT_EQ(test::ElementText(dom, "windows-count"), "1");
   // The window the back builds (status.json's back.building), the one sent on the timeline.
   EXPECT_EQ(test::ElementText(dom, "back-building"), "the back builds window 7: mapper, 12 s (36 frames)");
