@@ -344,8 +344,8 @@ function drawCounts() {
   // the events kept are the last 200 only); else its events (live); else
   // its last save's counts.
   const manager = (live.status || {}).manager || {};
-  const counted = (live_key, kind, saved) =>
-    manager[live_key] !== undefined ? manager[live_key]
+  const counted = (statusKey, kind, saved) =>
+    manager[statusKey] !== undefined ? manager[statusKey]
       : live.events.length ? live.events.filter(([k]) => k === kind).length : live.managerStats[saved] || 0;
   $('count-merges').textContent = counted('merges', 'merged', 'merges');
   $('count-loops').textContent = counted('loops', 'loop', 'loop_closures');
