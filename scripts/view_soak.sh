@@ -4,7 +4,8 @@
 # live stream (`curl -N /api/events`, what a browser costs the server);
 # every minute it prints the stream's bytes per second and the whole map's
 # size (`/api/map`), and at a few points the time headless Chromium takes to
-# load the page (`?live=0`, against `about:blank` the same way).
+# load the page (`?live=0`, against `about:blank` the same way); at the
+# end, what the stream carried by event (count, bytes, bytes/s, share).
 #   scripts/view_soak.sh [MINUTES] [OUT] [SEQUENCE]   (defaults 20, /tmp/rumi-view-soak, dark)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -24,6 +25,7 @@ follow=
 for _ in $(seq 1 120); do curl -sf "$url/api/state" > /dev/null && break; sleep 1; done
 curl -sN "$url/api/events" -o "$out/events.sse" &
 follow=$!
+follow_t0=$(date +%s)
 load_ms() {  # the page (or about:blank) loaded and its script run, in ms
   local t0 t1
   t0=$(date +%s%N)
@@ -50,8 +52,19 @@ for m in $(seq 1 "$minutes"); do
 done
 wait "$soak" || true
 kill "$follow" 2>/dev/null || true
+follow_s=$(( $(date +%s) - follow_t0 ))
 trap - EXIT
 grep -E '^soak:|^per hour|^from ' "$out/soak.log" || true
-printf 'events by kind: '
-grep -o '^event: [a-z_]*' "$out/events.sse" | sort | uniq -c | awk '{printf "%s %s  ", $3, $1}'
-echo
+# What the stream carried, by event (": idle" keep-alives apart), over the $follow_s s it was followed.
+echo "the stream by event, $follow_s s followed:"
+LC_ALL=C awk -v s="$follow_s" '
+  /^event: / { k = $2; n[k]++ }
+  /^:/ { k = "(idle)"; n[k]++ }
+  { b[k] += length($0) + 1; all += length($0) + 1 }
+  END {
+    printf "%-14s %8s %12s %10s %8s %6s\n", "event", "count", "bytes", "each", "bytes/s", "share"
+    by_size = "sort -k3 -n -r"
+    for (k in b) printf "%-14s %8d %12d %10d %8d %5.1f%%\n", k, n[k], b[k], b[k] / n[k], b[k] / s, 100 * b[k] / all | by_size
+    close(by_size)
+    printf "%-14s %8s %12d %10s %8d\n", "all", "", all, "", all / s
+  }' "$out/events.sse"

@@ -3,7 +3,6 @@
 #include <spdlog/spdlog.h>
 
 #include <chrono>
-#include <fstream>
 #include <functional>
 #include <sstream>
 
@@ -49,17 +48,19 @@ bool FolderFeed::Poll(std::string* why) {
     nlohmann::json st;
     std::string w;
     if (ReadDaemonStatus(dir_, &st, &w))
-      hub_->SetFile("status", st);
+      hub_->SetStatus(st);
     else
       fail(w);
   }
   // The manager's counts at its last save (merges, loops): what a saved
   // session says of itself, without the DDS events.
   if (Changed(dir / "manager_stats.json")) {
-    std::ifstream in(dir / "manager_stats.json");
-    const nlohmann::json stats = nlohmann::json::parse(in, nullptr, false);
+    std::string text, w;
+    const nlohmann::json stats =
+        ReadFileText((dir / "manager_stats.json").string(), &text, &w) ? nlohmann::json::parse(text, nullptr, false)
+                                                                       : nlohmann::json();
     if (stats.is_object())
-      hub_->SetFile("manager_stats", stats);
+      hub_->SetManagerStats(stats);
     else
       seen_.erase((dir / "manager_stats.json").string());  // being replaced: next time
   }

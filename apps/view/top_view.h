@@ -65,6 +65,22 @@ TopView MakeTopView(const MapSnapshot& s, const std::optional<Sim3>& S_gm, int c
 // The plane position (metres) and heading of a pose, as the top view draws it.
 Eigen::Vector3d PlanePose(const Se3& T_wc, const std::optional<Sim3>& S_gm);
 
+// What the page is shown next: `truth` (a new MakeTopView), except that
+// what moved by at most `tolerance_cells` cells since `shown` stays where
+// the page has it. A rebuild moves the whole map by a few centimetres (a
+// merge, a loop correction), about a cell: sent as it is, half the cells
+// and every keyframe would go out again at every rebuild (docs/view.md).
+// The result holds exactly as many cells as `truth`, each the true cell it
+// stands for or a shown one at most tolerance_cells from it (a one-to-one
+// match: the true cells not in `shown` are matched with the shown cells no
+// longer true, the most common move first), and each keyframe as in
+// `truth` or, when it moved by at most tolerance_cells (each axis) and
+// turned by at most kShownTurnDeg, as shown. tolerance_cells 0, a change of
+// frame or cell size, or nothing shown yet: `truth` itself. The rest
+// (submaps, links, counts, seq) is always `truth`'s.
+constexpr int kShownTurnDeg = 5;
+TopView ShownTopView(const TopView& shown, const TopView& truth, int tolerance_cells);
+
 // The delta from `from` to `to`; from an empty view (seq 0) it is the whole
 // view. A change of frame or cell size resets: the delta is the whole view.
 nlohmann::json TopViewDelta(const TopView& from, const TopView& to);

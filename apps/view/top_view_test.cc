@@ -112,6 +112,80 @@ TEST(TopView, ADeltaAppliedToThePreviousViewGivesTheNextOne) {
   EXPECT_LT(delta * 5, whole);
 }
 
+// Whether every cell of `a` has one of `b` at most `cells` away (each axis).
+bool EachNear(const std::set<std::pair<int32_t, int32_t>>& a, const std::set<std::pair<int32_t, int32_t>>& b,
+              int cells) {
+  for (const auto& c : a) {
+    bool near = false;
+    for (int dx = -cells; dx <= cells && !near; ++dx)
+      for (int dy = -cells; dy <= cells && !near; ++dy) near = b.count({c.first + dx, c.second + dy}) > 0;
+    if (!near) return false;
+  }
+  return true;
+}
+
+// The map as a rebuild leaves it: all of it moved by `T` (a merge, a loop correction).
+MapSnapshot Moved(MapSnapshot s, const Se3& T) {
+  for (Eigen::Vector3f& p : s.points) p = (T * p.cast<double>()).cast<float>();
+  for (SnapshotKeyframe& k : s.keyframes) k.T_wc = T * k.T_wc;
+  return s;
+}
+
+TEST(TopView, AMapMovedByAFewCentimetresSendsAFewCells) {
+  TopView shown = MakeTopView(Map(10000, 40), std::nullopt, 512);
+  shown.seq = 1;
+  // 4 cm along x, 3 cm along z, turned 0.2 degrees (3.5 cm at the map's edge):
+  // under a cell and a half of 6.25 cm.
+  const Se3 T(Eigen::Quaterniond(Eigen::AngleAxisd(0.2 * M_PI / 180, Eigen::Vector3d::UnitY())),
+              Eigen::Vector3d(0.04, 0, 0.03));
+  TopView truth = MakeTopView(Moved(Map(10000, 40), T), std::nullopt, 512);
+  truth.seq = 2;
+  ASSERT_EQ(truth.cell_m, shown.cell_m);
+  ASSERT_EQ(truth.cell_m, 0.0625);
+  const TopView next = ShownTopView(shown, truth, 2);
+  const nlohmann::json plain = TopViewDelta(shown, truth), d = TopViewDelta(shown, next);
+  EXPECT_GT(plain["cells_add"].size() / 2, truth.cells.size() / 3) << "sent as it is: most cells again";
+  EXPECT_EQ(plain["kf_set"].size(), 40u);
+  EXPECT_LT(d["cells_add"].size() / 2, truth.cells.size() / 20);  // points that split or share a cell
+  EXPECT_TRUE(d["kf_set"].empty());
+  EXPECT_EQ(d["counts"], plain["counts"]);
+  std::cout << "10k points moved 5 cm: " << plain.dump().size() << " bytes as they are (" << plain["cells_add"].size() / 2
+            << " cells added), " << d.dump().size() << " bytes shown within 2 cells (" << d["cells_add"].size() / 2
+            << " added, " << d["cells_del"].size() / 2 << " removed; " << shown.cells.size() << " -> "
+            << truth.cells.size() << " cells)\n";
+  EXPECT_LT(d.dump().size() * 10, plain.dump().size());
+  // The page gets exactly what the hub holds...
+  TopView applied = shown;
+  Apply(d, &applied);
+  EXPECT_EQ(applied.cells, next.cells);
+  EXPECT_EQ(applied.keyframes, next.keyframes);
+  // ...which is the true map within 2 cells: as many cells, each near a true one.
+  EXPECT_EQ(next.cells.size(), truth.cells.size());
+  EXPECT_TRUE(EachNear(next.cells, truth.cells, 2));
+  EXPECT_TRUE(EachNear(truth.cells, next.cells, 2));
+  for (const auto& [key, k] : next.keyframes) {
+    EXPECT_LE(std::abs(k.x_mm - truth.keyframes.at(key).x_mm), 125) << key;
+    EXPECT_LE(std::abs(k.y_mm - truth.keyframes.at(key).y_mm), 125) << key;
+  }
+
+  // A move past the tolerance, and new points, are sent; tolerance 0: every move.
+  MapSnapshot further = Moved(Map(10000, 40), T);
+  further.keyframes[3].T_wc = Se3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(5, 0, 5));
+  const MapSnapshot more = Map(200, 0, 9);
+  further.points.insert(further.points.end(), more.points.begin(), more.points.end());
+  TopView truth3 = MakeTopView(further, std::nullopt, 512);
+  truth3.seq = 3;
+  const TopView next3 = ShownTopView(next, truth3, 2);
+  const nlohmann::json d3 = TopViewDelta(next, next3);
+  EXPECT_EQ(d3["kf_set"].size(), 1u);
+  EXPECT_GE(d3["cells_add"].size() / 2, 150u);  // the new points' cells (a few fall on shown ones)
+  EXPECT_EQ(next3.cells.size(), truth3.cells.size());
+  EXPECT_TRUE(EachNear(next3.cells, truth3.cells, 2) && EachNear(truth3.cells, next3.cells, 2));
+  const TopView exact = ShownTopView(next, truth3, 0);
+  EXPECT_EQ(exact.cells, truth3.cells);
+  EXPECT_EQ(exact.keyframes, truth3.keyframes);
+}
+
 TEST(TopView, AChangeOfCellSizeSendsTheWholeView) {
   TopView a = MakeTopView(Map(1000, 4), std::nullopt, 512);
   a.seq = 1;

@@ -10,10 +10,10 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
-#include <regex>
 #include <thread>
 
 #include "apps/view/view_session.h"
+#include "common/testing/headless_chromium.h"
 #include "common/testing/process.h"
 #include "common/testing/require.h"
 #include "common/testing/temp_dir.h"
@@ -93,7 +93,10 @@ void WriteSession(const fs::path& dir) {
         {{{"name", "rumi-front"}, {"state", "exited"}, {"restarts", 1}},
          {{"name", "rumi-back"}, {"state", "exited"}, {"restarts", 0}},
          {{"name", "rumi-manager"}, {"state", "exited"}, {"restarts", 0}}}},
-       {"back", {{"queue", 0}, {"windows_built", 1}}},
+       {"back",
+        {{"queue", 1},
+         {"windows_built", 1},
+         {"building", {{"window", 7}, {"stage", "mapper"}, {"elapsed_s", 12.4}, {"frames", 36}}}}},
        {"rings", {{{"name", "rumi_browser_windows"}, {"dropped", 2}}}}});
   const SyntheticScene scene = Scene();
   std::ofstream(dir / "manager_stats.json")
@@ -111,21 +114,8 @@ void WriteSession(const fs::path& dir) {
   }
 }
 
-// The text of the element with this id in the DOM Chromium dumped.
-std::string ById(const std::string& dom, const std::string& id) {
-  const std::regex re("id=\"" + id + "\"[^>]*>([^<]*)<");
-  std::smatch m;
-  return std::regex_search(dom, m, re) ? m[1].str() : "<no #" + id + ">";
-}
-
-std::string Chromium() {
-  for (const char* c : {"chromium", "chromium-browser", "google-chrome"})
-    if (test::RunCommand(std::string("command -v ") + c + " >/dev/null").code == 0) return c;
-  return "";
-}
-
 TEST(ViewBrowser, ThePageShowsWhatTheMapFileHolds) {
-  const std::string chromium = Chromium();
+  const std::string chromium = test::FindChromium();
   RUMI_REQUIRE(!chromium.empty(), "no chromium to run the page in (apt-get install chromium)");
   TempDir tmp;
   const fs::path dir = tmp.Create() / "state";
@@ -139,25 +129,32 @@ TEST(ViewBrowser, ThePageShowsWhatTheMapFileHolds) {
   auto session = ViewSession::Start(o, &why);
   ASSERT_TRUE(session) << why;
 
-  // Headless as root needs --no-sandbox; its own profile folder. The DOM is
-  // dumped once the virtual time budget is spent; virtual time stands still
-  // while a request is open, so the page's live stream holds it until the
-  // test ends the stream below.
+  // The DOM is dumped once the virtual time budget is spent; virtual time
+  // stands still while a request is open, so the page's live stream holds
+  // it until the test ends the stream below.
   const std::string log = (tmp.path() / "chromium.log").string();
-  const std::string base = chromium + " --headless --no-sandbox --disable-gpu --no-first-run --mute-audio "
-                           "--disable-dev-shm-usage --user-data-dir=" + (tmp.path() / "profile").string() +
-                           " --enable-logging=stderr --v=0 --virtual-time-budget=5000 ";
+  const std::string base = test::HeadlessChromium(chromium, tmp.path() / "profile");
   test::CommandResult r;
-  std::thread browser(
-      [&] { r = test::RunCommand("timeout 300 " + base + "--dump-dom " + session->Address() + " 2>" + log); });
+  std::thread browser([&] { r = test::DumpDom(base, session->Address(), log, 300); });
   // The page loaded the session and follows the live stream.
   const bool following = test::WaitFor([&] { return session->hub().counters().clients >= 1; }, 240);
-  // Live: the pose moves (20 poses tracked, then 10 lost) and the map grows
-  // (the manager saved again: one more front submap joined).
+  // Live: front_frames.txt grows (5 frames lost, 5 tracked): the page gets
+  // the timeline's change (keep 5, add lost, tracking, end), once the feed
+  // read it...
   const SyntheticScene scene = Scene();
+  {
+    std::ofstream frames(dir / "front" / "front_frames.txt", std::ios::app);
+    for (int i = 1; i <= 10; ++i)
+      frames << std::fixed << std::setprecision(9) << NsToSeconds(scene.timestamps.back() + i * 33'000'000LL) << " "
+             << (i <= 5 ? "lost" : "tracking") << " 4\n";
+  }
+  const bool grown = test::WaitFor(
+      [&] { return nlohmann::json::parse(session->hub().TimelineJson())["timeline"].size() == 8; }, 60);
+  // ...then the pose moves (20 poses tracked, then 10 lost) and the map
+  // grows (the manager saved again: one more front submap joined).
   for (int i = 0; i < 30; ++i) {
     LivePose p;
-    p.timestamp = scene.timestamps.back() + (i + 1) * 100'000'000LL;
+    p.timestamp = scene.timestamps.back() + 1'000'000'000LL + i * 100'000'000LL;
     p.state = i < 20 ? 1 : 3;
     p.in_global = true;
     p.T_wc = scene.T_wc[size_t(60 + i)];
@@ -174,10 +171,11 @@ TEST(ViewBrowser, ThePageShowsWhatTheMapFileHolds) {
   browser.join();
   ASSERT_TRUE(following) << "the page never opened its live stream; chromium's log:\n" << test::Slurp(log);
   ASSERT_TRUE(updated);
+  ASSERT_TRUE(grown) << session->hub().TimelineJson();
   ASSERT_EQ(r.code, 0) << "chromium failed; its log:\n" << test::Slurp(log);
   const std::string& dom = r.out;
-  ASSERT_EQ(ById(dom, "loaded"), "yes") << dom.substr(0, 4000) << "\n" << test::Slurp(log);
-  EXPECT_EQ(ById(dom, "errors"), "") << "script errors on the page";
+  ASSERT_EQ(test::ElementText(dom, "loaded"), "yes") << dom.substr(0, 4000) << "\n" << test::Slurp(log);
+  EXPECT_EQ(test::ElementText(dom, "errors"), "") << "script errors on the page";
   EXPECT_EQ(test::Slurp(log).find("Uncaught"), std::string::npos) << test::Slurp(log);
 
   // What the page must say: the grown map file as the manager would serve it.
@@ -186,39 +184,42 @@ TEST(ViewBrowser, ThePageShowsWhatTheMapFileHolds) {
   MapSnapshot expect;
   FillMapSnapshot(map, &expect);
   ASSERT_EQ(expect.submaps.size(), 5u);
-  EXPECT_EQ(ById(dom, "count-points"), std::to_string(expect.points.size()));
-  EXPECT_EQ(ById(dom, "count-keyframes"), std::to_string(expect.keyframes.size()));
-  EXPECT_EQ(ById(dom, "count-submaps"), "5");
-  EXPECT_EQ(ById(dom, "count-components"), "2");  // the unjoined front submap is a component of its own
-  EXPECT_EQ(ById(dom, "count-links"), "2");       // the back submap joined two front submaps
-  EXPECT_EQ(ById(dom, "drawn-keyframes"), std::to_string(expect.keyframes.size()));
-  EXPECT_GT(std::stoi(ById(dom, "drawn-cells")), 100);
-  EXPECT_EQ(ById(dom, "drawn-grid"), "yes");
-  EXPECT_EQ(ById(dom, "frame"), "grid");
-  EXPECT_EQ(ById(dom, "drawn-trail"), "30");  // every live pose (15 Hz at most: they are 10 Hz)
-  // tracking, lost, tracking, lost, tracking, end from front_frames.txt; then tracking, lost live.
-  EXPECT_EQ(ById(dom, "timeline-count"), "8");
-  EXPECT_EQ(ById(dom, "windows-count"), "1");
-  EXPECT_EQ(ById(dom, "live"), "offline");
-  EXPECT_EQ(ById(dom, "count-merges"), "1");
-  EXPECT_EQ(ById(dom, "count-loops"), "1");
+  EXPECT_EQ(test::ElementText(dom, "count-points"), std::to_string(expect.points.size()));
+  EXPECT_EQ(test::ElementText(dom, "count-keyframes"), std::to_string(expect.keyframes.size()));
+  EXPECT_EQ(test::ElementText(dom, "count-submaps"), "5");
+  EXPECT_EQ(test::ElementText(dom, "count-components"), "2");  // the unjoined front submap is a component of its own
+  EXPECT_EQ(test::ElementText(dom, "count-links"), "2");       // the back submap joined two front submaps
+  EXPECT_EQ(test::ElementText(dom, "drawn-keyframes"), std::to_string(expect.keyframes.size()));
+  EXPECT_GT(std::stoi(test::ElementText(dom, "drawn-cells")), 100);
+  EXPECT_EQ(test::ElementText(dom, "drawn-grid"), "yes");
+  EXPECT_EQ(test::ElementText(dom, "frame"), "grid");
+  EXPECT_EQ(test::ElementText(dom, "drawn-trail"), "30");  // every live pose (15 Hz at most: they are 10 Hz)
+  // tracking, lost, tracking, lost, tracking, end from front_frames.txt as
+  // the page loaded it; lost, tracking, end as it grew (a delta); then
+  // tracking, lost live.
+  EXPECT_EQ(test::ElementText(dom, "timeline-count"), "10");
+  EXPECT_EQ(test::ElementText(dom, "windows-count"), "1");
+  // The window the back builds (status.json's back.building), the one sent on the timeline.
+  EXPECT_EQ(test::ElementText(dom, "back-building"), "the back builds window 7: mapper, 12 s (36 frames)");
+  EXPECT_EQ(test::ElementText(dom, "live"), "offline");
+  EXPECT_EQ(test::ElementText(dom, "count-merges"), "1");
+  EXPECT_EQ(test::ElementText(dom, "count-loops"), "1");
   EXPECT_NE(dom.find("loop front#2 → front#1 (keyframe 60 -&gt; 4)"), std::string::npos);
   EXPECT_NE(dom.find("component 1 (not joined)"), std::string::npos);
   EXPECT_NE(dom.find("<td>rumi-front</td><td>exited</td><td>1</td>"), std::string::npos);
-  EXPECT_EQ(ById(dom, "instance"), "browser");
+  EXPECT_EQ(test::ElementText(dom, "instance"), "browser");
   session.reset();
 
   // The saved session alone, still (?live=0: nothing left open), as `rumi
   // view` shows it: no events, so the merges are the last save's count.
   session = ViewSession::Start(o, &why);
   ASSERT_TRUE(session) << why;
-  const test::CommandResult still =
-      test::RunCommand("timeout 180 " + base + "--dump-dom " + session->Address() + "?live=0 2>>" + log);
+  const test::CommandResult still = test::DumpDom(base, session->Address() + "?live=0", log);
   ASSERT_EQ(still.code, 0) << test::Slurp(log);
-  EXPECT_EQ(ById(still.out, "loaded"), "yes");
-  EXPECT_EQ(ById(still.out, "errors"), "");
-  EXPECT_EQ(ById(still.out, "count-merges"), "2");
-  EXPECT_EQ(ById(still.out, "count-submaps"), "5");
+  EXPECT_EQ(test::ElementText(still.out, "loaded"), "yes");
+  EXPECT_EQ(test::ElementText(still.out, "errors"), "");
+  EXPECT_EQ(test::ElementText(still.out, "count-merges"), "2");
+  EXPECT_EQ(test::ElementText(still.out, "count-submaps"), "5");
   EXPECT_NE(still.out.find("map at its last save"), std::string::npos);
   // The same page as a picture (the docs' come this way from a demo session).
   // The same page as a picture (docs/view.md's come from a demo session).

@@ -22,16 +22,34 @@ const char* LiveStateName(int state) {
   }
 }
 
-// Appends [t, state] when the state changed since the timeline's last entry.
-void Extend(nlohmann::json* timeline, double t, const std::string& state) {
-  if (!timeline->empty() && timeline->back()[1] == state) return;
+// Appends [t, state] when the state changed since the timeline's last
+// entry; whether it did (view.js extends its copy from the poses alike).
+bool Extend(nlohmann::json* timeline, double t, const std::string& state) {
+  if (!timeline->empty() && timeline->back()[1] == state) return false;
   timeline->push_back({t, state});
+  return true;
 }
 
 }  // namespace
 
 std::string SseMessage(const std::string& event, const std::string& data) {
   return "event: " + event + "\ndata: " + data + "\n\n";
+}
+
+nlohmann::json ManagerSummary(const nlohmann::json& stats) {
+  nlohmann::json summary = nlohmann::json::object();
+  if (!stats.is_object()) return summary;
+  for (const auto& [key, value] : stats.items())
+    if (value.is_primitive()) summary[key] = value;
+  return summary;
+}
+
+nlohmann::json TimelineDelta(const nlohmann::json& from, const nlohmann::json& to) {
+  size_t keep = 0;
+  while (keep < from.size() && keep < to.size() && from[keep] == to[keep]) ++keep;
+  nlohmann::json add = nlohmann::json::array();
+  for (size_t i = keep; i < to.size(); ++i) add.push_back(to[i]);
+  return {{"keep", keep}, {"add", std::move(add)}};
 }
 
 void ViewHub::Broadcast(const std::string& event, const std::string& data) {
@@ -42,9 +60,10 @@ void ViewHub::Broadcast(const std::string& event, const std::string& data) {
 void ViewHub::SetMap(const MapSnapshot& map, const SnapshotGrid& grid) {
   std::optional<Sim3> S_gm;
   if (grid.ok) S_gm = MapToGridFromYaml(grid.yaml);
-  TopView next = MakeTopView(map, S_gm, options_.cells_across);
+  TopView truth = MakeTopView(map, S_gm, options_.cells_across);
   std::lock_guard<std::mutex> lock(mutex_);
-  next.seq = view_.seq + 1;  // the hub's own numbering: a page asks for a base it knows
+  truth.seq = view_.seq + 1;  // the hub's own numbering: a page asks for a base it knows
+  TopView next = ShownTopView(view_, truth, options_.move_tolerance_cells);
   const std::string delta = TopViewDelta(view_, next).dump();
   view_ = std::move(next);
   map_json_ = TopViewDelta(TopView(), view_).dump();
@@ -58,20 +77,33 @@ void ViewHub::SetMap(const MapSnapshot& map, const SnapshotGrid& grid) {
   if (grid_changed) Broadcast("grid", GridMeta());
 }
 
-void ViewHub::SetFile(const std::string& name, const nlohmann::json& content) {
+void ViewHub::SetStatus(const nlohmann::json& status) {
   std::lock_guard<std::mutex> lock(mutex_);
-  files_[name] = content;
+  status_ = status;
   ++counters_.file_messages;
-  Broadcast(name, content.dump());
+  Broadcast("status", status_.dump());
+}
+
+void ViewHub::SetManagerStats(const nlohmann::json& stats) {
+  const nlohmann::json summary = ManagerSummary(stats);
+  std::lock_guard<std::mutex> lock(mutex_);
+  manager_stats_ = stats;
+  ++counters_.file_messages;
+  Broadcast("manager_stats", summary.dump());
 }
 
 void ViewHub::SetFrames(const std::vector<FrontFrameLine>& frames) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  timeline_ = nlohmann::json::array();
+  nlohmann::json timeline = nlohmann::json::array();
   for (const FrontFrameLine& f : frames)
-    if (!f.skipped) Extend(&timeline_, NsToSeconds(f.t), ToString(f.state));
-  if (!frames.empty()) timeline_.push_back({NsToSeconds(frames.back().t), "end"});
-  Broadcast("timeline", timeline_.dump());
+    if (!f.skipped) Extend(&timeline, NsToSeconds(f.t), ToString(f.state));
+  if (!frames.empty()) timeline.push_back({NsToSeconds(frames.back().t), "end"});
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (timeline == timeline_) return;
+  nlohmann::json delta = TimelineDelta(timeline_, timeline);
+  delta["base"] = timeline_seq_;
+  delta["seq"] = ++timeline_seq_;
+  timeline_ = std::move(timeline);
+  Broadcast("timeline", delta.dump());
 }
 
 void ViewHub::SetSamples(const std::vector<FrontSampleLine>& samples) {
@@ -106,8 +138,8 @@ void ViewHub::AddPose(const LivePose& p) {
   nlohmann::json j = {{"t", t}, {"state", LiveStateName(p.state)}, {"submap", p.submap}};
   std::lock_guard<std::mutex> lock(mutex_);
   pose_t_ = t;
-  const bool state_changed = timeline_.empty() || timeline_.back()[1] != j["state"];
-  Extend(&timeline_, t, j["state"]);
+  const bool state_changed = Extend(&timeline_, t, j["state"]);
+  timeline_seq_ += state_changed;
   // A change of state always goes out (the timeline); otherwise pose_hz.
   if (!state_changed && t - last_pose_s_ < 1.0 / options_.pose_hz && t >= last_pose_s_) return;
   last_pose_s_ = t;
@@ -132,13 +164,25 @@ std::string ViewHub::MapJson() {
 std::string ViewHub::StateJson() {
   std::lock_guard<std::mutex> lock(mutex_);
   asked_ = std::chrono::steady_clock::now();
-  nlohmann::json state = files_;
-  state.update({{"timeline", timeline_},
-                {"pose_t", pose_t_},
-                {"windows", windows_},
-                {"events", events_},
-                {"trail", trail_}});
+  const nlohmann::json state = {{"status", status_},
+                                 {"manager_stats", ManagerSummary(manager_stats_)},
+                                 {"timeline", timeline_},
+                                 {"timeline_seq", timeline_seq_},
+                                 {"pose_t", pose_t_},
+                                 {"windows", windows_},
+                                 {"events", events_},
+                                 {"trail", trail_}};
   return state.dump();
+}
+
+std::string ViewHub::TimelineJson() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return nlohmann::json({{"seq", timeline_seq_}, {"timeline", timeline_}}).dump();
+}
+
+std::string ViewHub::ManagerStatsJson() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return manager_stats_.dump();
 }
 
 bool ViewHub::Watched(double within_s) const {

@@ -35,11 +35,15 @@ class ViewHub {
   // A new map (and the grid with it; grid.ok false: none). Streams get the
   // delta from the previous map.
   void SetMap(const MapSnapshot& map, const SnapshotGrid& grid);
-  // A file of the session as it is, under its name: "status" (status.json as
-  // rumid writes it), "manager_stats" (manager_stats.json, at each save).
-  // Pages get it whole, in /api/state and as an event of that name.
-  void SetFile(const std::string& name, const nlohmann::json& content);
-  // front_frames.txt of a finished session (the timeline of a folder).
+  // status.json as rumid writes it (every second; a few KB): pages get it
+  // whole, in /api/state and as the `status` event.
+  void SetStatus(const nlohmann::json& status);
+  // manager_stats.json at each save: pages get its summary (ManagerSummary)
+  // in /api/state and as the `manager_stats` event; its reports, which grow
+  // with the session, only whole at /api/manager_stats, when asked.
+  void SetManagerStats(const nlohmann::json& stats);
+  // front_frames.txt (the timeline of a folder, read again as it grows).
+  // Streams get the change since the last timeline (TimelineDelta).
   void SetFrames(const std::vector<FrontFrameLine>& frames);
   // front_samples.txt: the frames the sampler sent the back, by window.
   void SetSamples(const std::vector<FrontSampleLine>& samples);
@@ -51,9 +55,15 @@ class ViewHub {
 
   // GET /api/map: the whole top view (TopViewDelta from nothing).
   std::string MapJson();
-  // GET /api/state: status, the timeline so far (up to the last pose's
-  // time), the windows, the events and the pose trail.
+  // GET /api/state: status, the manager's summary, the timeline so far (up
+  // to the last pose's time) and its seq, the windows, the events and the
+  // pose trail.
   std::string StateJson();
+  // GET /api/timeline: {seq, timeline}, for a page whose timeline is not a
+  // delta's base.
+  std::string TimelineJson() const;
+  // GET /api/manager_stats: manager_stats.json whole ({} before a save).
+  std::string ManagerStatsJson() const;
   // Whether a page looked in the last `within_s` seconds: a stream is open,
   // or /api/map or /api/state was asked for (a still page, ?live=0).
   bool Watched(double within_s) const;
@@ -80,8 +90,10 @@ class ViewHub {
   std::string map_json_;
   SnapshotGrid grid_;
   std::optional<Sim3> S_gm_;
-  nlohmann::json files_ = {{"status", nlohmann::json::object()}, {"manager_stats", nlohmann::json::object()}};
+  nlohmann::json status_ = nlohmann::json::object();
+  nlohmann::json manager_stats_ = nlohmann::json::object();  // whole
   nlohmann::json timeline_ = nlohmann::json::array();  // [t_s, state] at each change of state
+  int64_t timeline_seq_ = 0;  // counts the timeline's changes: a delta's base
   nlohmann::json trail_ = nlohmann::json::array();     // [t_s, x, y, yaw] of the recent poses
   nlohmann::json windows_ = nlohmann::json::array();   // [id, first_s, last_s, S1, S2, S3] per window sent
   nlohmann::json events_ = nlohmann::json::array();    // [kind, submap, other, detail], the last kEvents
@@ -95,5 +107,15 @@ class ViewHub {
 
 // One server-sent event: "event: NAME\ndata: DATA\n\n".
 std::string SseMessage(const std::string& event, const std::string& data);
+
+// What the page shows of manager_stats.json: its top-level figures and
+// words (merges, loop closures, components, the last save, ...), not its
+// lists and tables (the merge reports, the loops, the components' submaps).
+nlohmann::json ManagerSummary(const nlohmann::json& stats);
+
+// The change from one timeline ([[t_s, state], ...]) to the next:
+// {keep: how many entries of `from` stay, add: what follows them}. Applied
+// (view.js): from.length = keep, then add appended.
+nlohmann::json TimelineDelta(const nlohmann::json& from, const nlohmann::json& to);
 
 }  // namespace rumi

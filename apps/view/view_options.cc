@@ -29,6 +29,8 @@ const OptionSpec<ViewOptions>& ViewOptions::Spec() {
     s->Number("pose_hz", &O::pose_hz, Above(0.0), AtMost(100.0), "the live pose goes out at most this often");
     s->Number("cells_across", &O::cells_across, AtLeast(16), AtMost(4096),
               "the top view's point cells across the map's extent");
+    s->Number("move_tolerance_cells", &O::move_tolerance_cells, AtLeast(0), AtMost(16),
+              "a point cell or keyframe that moved by at most this many cells stays where the page shows it");
     s->Text("web_dir", &O::web_dir, "the page's files; '': installed share/rumi/view, else the source tree's");
     s->Rule("a bind address other than loopback needs view.token or view.token_file",
             [](const O& o) { return IsLoopbackAddress(o.bind) || !o.token.empty() || !o.token_file.empty(); });

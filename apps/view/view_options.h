@@ -27,6 +27,10 @@ struct ViewOptions {
   double pose_hz = 15.0;
   // The top view's point cells: about this many across the map's extent.
   int cells_across = 512;
+  // A point cell or keyframe that moved by at most this many cells (a
+  // rebuild's few centimetres) stays where the page shows it: map updates
+  // stay small on a map that moves (0: every move is sent).
+  int move_tolerance_cells = 2;
   // The page's files; '': installed share/rumi/view, else the source tree's.
   std::string web_dir;
 

@@ -152,6 +152,11 @@ std::unique_ptr<ViewServer> ViewServer::Start(const ViewOptions& o, const std::s
   svr.Get("/api/map", [hub, json](const httplib::Request&, httplib::Response& res) { res.set_content(hub->MapJson(), json); });
   svr.Get("/api/state",
           [hub, json](const httplib::Request&, httplib::Response& res) { res.set_content(hub->StateJson(), json); });
+  svr.Get("/api/timeline",
+          [hub, json](const httplib::Request&, httplib::Response& res) { res.set_content(hub->TimelineJson(), json); });
+  svr.Get("/api/manager_stats", [hub, json](const httplib::Request&, httplib::Response& res) {
+    res.set_content(hub->ManagerStatsJson(), json);
+  });
   svr.Get("/api/grid", [hub, json](const httplib::Request&, httplib::Response& res) { res.set_content(hub->GridJson(), json); });
   svr.Get("/api/grid.pgm", [hub](const httplib::Request&, httplib::Response& res) {
     const std::string pgm = hub->GridPgm();

@@ -116,7 +116,7 @@ TEST(ViewServer, ServesThePageAndItsJson) {
   EXPECT_EQ(r->status, 200);
   EXPECT_NE(r->body.find("view.js"), std::string::npos);
   EXPECT_NE(r->get_header_value("Content-Security-Policy").find("'self'"), std::string::npos);
-  for (const char* path : {"/view.js", "/view.css", "/api/map", "/api/state", "/api/grid"}) {
+  for (const char* path : {"/view.js", "/view.css", "/api/map", "/api/state", "/api/grid", "/api/timeline", "/api/manager_stats"}) {
     r = c.Get(path);
     ASSERT_TRUE(r) << path;
     EXPECT_EQ(r->status, 200) << path;
@@ -210,8 +210,8 @@ TEST(ViewServer, AStalledBrowserLosesItsOldestMessagesAndHoldsUpNoOne) {
   // 20 MB of status for each stream: the stalled one cannot take it.
   const auto t0 = std::chrono::steady_clock::now();
   const nlohmann::json big = {{"filler", std::string(10000, 'x')}};
-  for (int i = 0; i < 2000; ++i) s.hub->SetFile("status", big);
-  s.hub->SetFile("status", {{"summary", "the last one"}});
+  for (int i = 0; i < 2000; ++i) s.hub->SetStatus(big);
+  s.hub->SetStatus({{"summary", "the last one"}});
   const double pushed_s = test::SecondsSince(t0);
   EXPECT_LT(pushed_s, 30.0);  // bounded queues: never waits on a browser (generous under load)
   std::string seen;

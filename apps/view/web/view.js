@@ -14,7 +14,7 @@ window.addEventListener('unhandledrejection', (e) => { $('errors').textContent +
 
 // The map as the page holds it; map deltas apply to it (TopViewDelta).
 const view = { seq: 0, frame: 'map', cell_m: 1, cells: new Set(), kfs: new Map(), submaps: new Map(), links: [], counts: {} };
-const live = { trail: [], timeline: [], windows: [], events: [], poseT: 0, status: {}, managerStats: {}, grid: null, gridImage: null };
+const live = { trail: [], timeline: [], timelineSeq: 0, windows: [], events: [], poseT: 0, status: {}, managerStats: {}, grid: null, gridImage: null };
 const EVENTS = 200;
 const TRAIL = 600;
 const PALETTE = ['#1565c0', '#ef6c00', '#6a1b9a', '#00897b', '#c2185b', '#5d4037', '#7cb342', '#3949ab'];
@@ -43,6 +43,21 @@ async function getJson(path) {
 }
 
 async function loadMap() { applyMap(await getJson('/api/map')); }
+
+// A timeline delta (TimelineDelta: keep, add) applies to the timeline of its
+// base only; false: fetch the whole timeline.
+function applyTimeline(d) {
+  if (d.base !== live.timelineSeq) return false;
+  live.timeline.length = Math.min(live.timeline.length, d.keep);
+  live.timeline.push(...d.add);
+  live.timelineSeq = d.seq;
+  return true;
+}
+
+async function loadTimeline() {
+  const t = await getJson('/api/timeline');
+  live.timeline = t.timeline; live.timelineSeq = t.seq;
+}
 
 // map_server's PGM (254 free, 0 occupied, 205 unknown) as an image, drawn as it is.
 async function loadGrid() {
@@ -79,6 +94,7 @@ function setState(state) {
   live.status = state.status || {};
   live.managerStats = state.manager_stats || {};
   live.timeline = state.timeline || [];
+  live.timelineSeq = state.timeline_seq || 0;
   live.windows = state.windows || [];
   live.poseT = state.pose_t || 0;
   live.events = state.events || [];
@@ -205,6 +221,15 @@ function drawTop() {
   legend.append(note);
 }
 
+// The window the back builds now (status.json's back.building: window,
+// stage, elapsed_s, frames), or null.
+function building() {
+  const b = ((live.status || {}).back || {}).building;
+  return b && b.window !== undefined ? b : null;
+}
+const buildingText = (b) =>
+  'window ' + b.window + ': ' + b.stage + ', ' + (b.elapsed_s || 0).toFixed(0) + ' s' + (b.frames ? ' (' + b.frames + ' frames)' : '');
+
 // ---- the timeline: tracking state per frame, back and front submaps ----
 function drawTimeline() {
   const canvas = $('timeline');
@@ -221,12 +246,16 @@ function drawTimeline() {
   const X = (t) => 44 + (t - t0) / (t1 - t0) * (canvas.width - 54);
   ctx.font = '11px sans-serif'; ctx.fillStyle = '#555';
   ctx.fillText('state', 2, 20); ctx.fillText('window', 2, 52); ctx.fillText('back', 2, 84); ctx.fillText('front', 2, 116);
-  // Each window sent to the back over the frames it holds, and its samples by set.
+  // Each window sent to the back over the frames it holds, and its samples
+  // by set; the one the back builds now in orange, with its stage.
+  const now = building();
   for (const [id, first, last, s1, s2, s3] of live.windows) {
-    ctx.fillStyle = '#00897b';
+    const built = now && now.window === id;
+    ctx.fillStyle = built ? '#f57c00' : '#00897b';
     ctx.fillRect(X(first), 40, Math.max(2, X(last) - X(first)), 18);
     ctx.fillStyle = '#fff';
-    ctx.fillText('#' + id + ' S1 ' + s1 + ' S2 ' + s2 + ' S3 ' + s3, X(first) + 3, 53);
+    ctx.fillText('#' + id + ' S1 ' + s1 + ' S2 ' + s2 + ' S3 ' + s3 +
+                 (built ? ' · ' + now.stage + ' ' + (now.elapsed_s || 0).toFixed(0) + ' s' : ''), X(first) + 3, 53);
   }
   for (let i = 0; i < live.timeline.length; i++) {
     const [t, state] = live.timeline[i];
@@ -274,6 +303,8 @@ function drawDaemon() {
   badge.textContent = state;
   badge.className = 'badge ' + ({ running: 'ok', finishing: 'warn', starting: 'warn', failed: 'bad' }[state] || '');
   $('daemon-summary').textContent = st.summary || (st.updated ? 'updated ' + st.updated : 'no daemon status in this folder');
+  const b = building();
+  $('back-building').textContent = b ? 'the back builds ' + buildingText(b) : st.back ? 'the back builds nothing now' : '';
   const body = $('children').tBodies[0];
   body.textContent = '';
   for (const c of st.children || []) {
@@ -290,9 +321,15 @@ function drawDaemon() {
     st.front && st.front.link ? details('robot link', st.front.link) : null,
     st.front && st.front.link && st.front.link.latency_ms ? details('link latency (ms)', st.front.link.latency_ms) : null,
   ];
-  parts.push(details('map at its last save', live.managerStats,
-                     ['last_save', 'components', 'submaps_front', 'submaps_back', 'merges', 'loop_closures',
-                      'points_after_culling', 'rebuilds', 'last_rebuild_seconds']));
+  const saved = details('map at its last save', live.managerStats,
+                        ['last_save', 'components', 'submaps_front', 'submaps_back', 'merges', 'loop_closures',
+                         'points_after_culling', 'rebuilds', 'last_rebuild_seconds']);
+  if (saved) {  // the merge reports and the loops: fetched when asked, not streamed
+    const a = document.createElement('a');
+    a.href = api('/api/manager_stats'); a.textContent = 'all of manager_stats.json'; a.id = 'manager-stats-link';
+    saved.append(a);
+  }
+  parts.push(saved);
   const rings = {};
   for (const r of st.rings || []) rings[r.name] = (r.dropped || 0) + ' dropped';
   parts.push(details('rings', rings));
@@ -303,11 +340,15 @@ function drawDaemon() {
 function drawCounts() {
   const c = view.counts || {};
   for (const k of ['points', 'keyframes', 'submaps', 'components', 'links']) $('count-' + k).textContent = c[k] || 0;
-  // From the manager's events when there are (live); else its last save's counts.
-  const counted = (kind, saved) =>
-    live.events.length ? live.events.filter(([k]) => k === kind).length : live.managerStats[saved] || 0;
-  $('count-merges').textContent = counted('merged', 'merges');
-  $('count-loops').textContent = counted('loop', 'loop_closures');
+  // The manager's own count in rumid's status.json (what `rumi status` says;
+  // the events kept are the last 200 only); else its events (live); else
+  // its last save's counts.
+  const manager = (live.status || {}).manager || {};
+  const counted = (statusKey, kind, saved) =>
+    manager[statusKey] !== undefined ? manager[statusKey]
+      : live.events.length ? live.events.filter(([k]) => k === kind).length : live.managerStats[saved] || 0;
+  $('count-merges').textContent = counted('merges', 'merged', 'merges');
+  $('count-loops').textContent = counted('loops', 'loop', 'loop_closures');
 }
 
 function drawEvents() {
@@ -345,7 +386,10 @@ function follow() {
   es.addEventListener('grid', () => loadGrid().then(redraw));
   es.addEventListener('status', (e) => { live.status = JSON.parse(e.data); redraw(); });
   es.addEventListener('manager_stats', (e) => { live.managerStats = JSON.parse(e.data); redraw(); });
-  es.addEventListener('timeline', (e) => { live.timeline = JSON.parse(e.data); redraw(); });
+  es.addEventListener('timeline', (e) => {
+    if (!applyTimeline(JSON.parse(e.data))) loadTimeline().then(redraw);
+    redraw();
+  });
   es.addEventListener('windows', (e) => { live.windows = JSON.parse(e.data); redraw(); });
   es.addEventListener('events', (e) => {
     live.events.push(...JSON.parse(e.data));
@@ -356,7 +400,7 @@ function follow() {
     const p = JSON.parse(e.data);
     live.poseT = Math.max(live.poseT, p.t);
     const last = live.timeline[live.timeline.length - 1];
-    if (!last || last[1] !== p.state) live.timeline.push([p.t, p.state]);
+    if (!last || last[1] !== p.state) { live.timeline.push([p.t, p.state]); live.timelineSeq++; }  // as the hub
     if (p.x !== undefined) {
       live.trail.push(p);
       if (live.trail.length > TRAIL) live.trail.splice(0, live.trail.length - TRAIL);
