@@ -7,10 +7,10 @@
 // once the back's submap is merged the page shows the components and merges
 // of `rumi status --json` taken at the same state, and the back submap in
 // the main map; while the back builds, the page says which window and at
-// what stage. Once the first window is sent the front is paused (SIGSTOP):
-// the back has the cores to itself, and nothing changes the map after its
-// merge. Every wait is a bounded poll for a condition (a loaded
-// 2-core CI): no sleep decides anything.
+// what stage. Once a back submap merged the front is paused (SIGSTOP), so
+// that the page and the status are compared at a moment nothing changes.
+// Every wait is a bounded poll for a condition (a loaded 2-core CI): no
+// sleep decides anything.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <unistd.h>
@@ -144,32 +144,33 @@ TEST(RumidView, ThePageFollowsTheSessionThroughTheBacksMerge) {
   const std::string second = load();
   EXPECT_GT(Number(ElementText(second, "drawn-trail")), trail_first);
 
-  // 3. The front paused once it sent its first window; the back's submap
-  // merged (COLMAP: a minute or more on 2 loaded cores), the back idle.
+  // 3. The back builds a window while the page loads (the page says which
+  // window, at what stage), then a back submap merges. The front keeps
+  // walking the loop meanwhile: every pass brings a loss and a window, so a
+  // window COLMAP cannot rebuild or a merge the manager refuses (the frames
+  // a loaded front loses differ from run to run) is followed by another
+  // chance rather than failing the test (one CI run waited 900 s for the
+  // first window's merge). Then the front is paused (SIGSTOP): no new
+  // window, and step 4 compares at a moment nothing changes.
   auto section = [&](const char* name) { return test::ReadStatus(state).value(name, nlohmann::json::object()); };
-  ASSERT_TRUE(test::WaitFor([&] { return section("front").value("windows_sent", 0) >= 1; }, 300,
-                            std::chrono::milliseconds(100)))
-      << why();
-  front = test::StatusChild(test::ReadStatus(state), "rumi-front").value("pid", -1);
-  ASSERT_GT(front, 0) << why();
-  ASSERT_EQ(::kill(front, SIGSTOP), 0);
   auto merged = [&] {
-    const nlohmann::json m = section("manager"), b = section("back");
-    return m.value("submaps_back", 0) >= 1 && m.value("merges", 0) >= 1 && b.value("queue", 1) == 0 &&
-           !b.contains("building");
+    const nlohmann::json m = section("manager");
+    return m.value("submaps_back", 0) >= 1 && m.value("merges", 0) >= 1;
   };
-  // Meanwhile the page says which window the back builds (status.json's
-  // back.building): loaded while two statuses, before and after, say the
-  // same window is at work and the view serves that status.
+  // Loaded while two statuses, before and after, say the same window is at
+  // work and the view serves that status.
   auto at_work = [](const nlohmann::json& back) {
     return back.contains("building") ? back["building"].value("window", int64_t{-1}) : int64_t{-1};
   };
   std::string during;
   int64_t window = -1;
-  while (during.empty() && test::WaitFor([&] { return at_work(section("back")) >= 0 || merged(); }, 900,
-                                         std::chrono::milliseconds(100))) {
+  const auto building_since = Clock::now();
+  while (during.empty() && test::SecondsSince(building_since) < 1200) {
+    if (!test::WaitFor([&] { return at_work(section("back")) >= 0; }, 1200 - test::SecondsSince(building_since),
+                       std::chrono::milliseconds(100)))
+      break;
     window = at_work(section("back"));
-    if (window < 0) break;  // built already
+    if (window < 0) continue;  // built already: the next one
     const bool served = test::WaitFor(
         [&] {
           const nlohmann::json st = api("/api/state");
@@ -180,11 +181,14 @@ TEST(RumidView, ThePageFollowsTheSessionThroughTheBacksMerge) {
     during = load();
     if (at_work(section("back")) != window) during.clear();
   }
-  ASSERT_FALSE(during.empty()) << "the page never loaded while the back built its window" << why();
+  ASSERT_FALSE(during.empty()) << "the page never loaded while the back built a window" << why();
   EXPECT_EQ(ElementText(during, "back-building").rfind("the back builds window " + std::to_string(window) + ": ", 0),
             0u)
       << ElementText(during, "back-building");
-  ASSERT_TRUE(test::WaitFor(merged, 900, std::chrono::milliseconds(500))) << why();
+  ASSERT_TRUE(test::WaitFor(merged, 1200, std::chrono::milliseconds(500))) << why();
+  front = test::StatusChild(test::ReadStatus(state), "rumi-front").value("pid", -1);
+  ASSERT_GT(front, 0) << why();
+  ASSERT_EQ(::kill(front, SIGSTOP), 0);
 
   // 4. The page against `rumi status --json` at one state: the view caught
   // up with the manager (its map's components, the status it serves), the
