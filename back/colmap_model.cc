@@ -1,9 +1,7 @@
 #include "back/colmap_model.h"
 
 #include <cstring>
-#include <fstream>
 #include <limits>
-#include <sstream>
 #include <type_traits>
 
 #include "common/atomic_file.h"

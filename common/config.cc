@@ -2,7 +2,6 @@
 
 #include "common/atomic_file.h"
 
-#include <fstream>
 #include <sstream>
 
 #include <yaml-cpp/eventhandler.h>

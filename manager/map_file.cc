@@ -5,8 +5,6 @@
 #include <cstring>
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 
 #include "common/atomic_file.h"
 #include "ipc/byte_io.h"

@@ -119,17 +119,13 @@ class DaemonFaults : public ::testing::Test {
     }
     const fs::path state = dir_ / ("state_" + name);
     ADD_FAILURE() << "rumid (" << name << ") still running after " << limit_s << " s; status: "
-                  << Status(state).dump(1) << "\nrumid log tail:\n" << Tail(dir_ / ("rumid_" + name + ".log"))
-                  << "\nback log tail:\n" << Tail(state / "logs" / "rumi-back.log")
-                  << "\nmanager log tail:\n" << Tail(state / "logs" / "rumi-manager.log");
+                  << Status(state).dump(1) << "\nrumid log tail:\n"
+                  << test::SlurpTail(dir_ / ("rumid_" + name + ".log"))
+                  << "\nback log tail:\n" << test::SlurpTail(state / "logs" / "rumi-back.log")
+                  << "\nmanager log tail:\n" << test::SlurpTail(state / "logs" / "rumi-manager.log");
     test::Stop(pid, 30, std::chrono::milliseconds(100));
     return false;
   }
-  static std::string Tail(const fs::path& p) {
-    const std::string text = Slurp(p);
-    return text.size() > 3000 ? text.substr(text.size() - 3000) : text;
-  }
-
   std::function<void()> on_wait_;
   static std::unique_ptr<TempDir> tmp_;
   static fs::path dir_, seq_;

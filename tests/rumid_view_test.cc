@@ -40,6 +40,7 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 using test::ElementText;
 using test::Slurp;
+using test::SlurpTail;
 
 // "main map: 3 front, 1 back" in the page's legend: the back submaps of component 0.
 int MainMapBackSubmaps(const std::string& dom) {
@@ -54,11 +55,6 @@ int Number(const std::string& text) {
   } catch (const std::exception&) {
     return -1;
   }
-}
-
-std::string Tail(const fs::path& p) {
-  const std::string text = Slurp(p);
-  return text.size() > 3000 ? text.substr(text.size() - 3000) : text;
 }
 
 TEST(RumidView, ThePageFollowsTheSessionThroughTheBacksMerge) {
@@ -97,8 +93,9 @@ TEST(RumidView, ThePageFollowsTheSessionThroughTheBacksMerge) {
     RemoveInstanceSegments(instance, /*force=*/true);
   }};
   auto why = [&] {
-    return "\nstatus: " + test::ReadStatus(state).dump(1) + "\nrumid: " + Tail(log) +
-           "\nback: " + Tail(state / "logs" / "rumi-back.log") + "\nmanager: " + Tail(state / "logs" / "rumi-manager.log");
+    return "\nstatus: " + test::ReadStatus(state).dump(1) + "\nrumid: " + SlurpTail(log) +
+           "\nback: " + SlurpTail(state / "logs" / "rumi-back.log") +
+           "\nmanager: " + SlurpTail(state / "logs" / "rumi-manager.log");
   };
 
   std::string view;
@@ -117,10 +114,10 @@ TEST(RumidView, ThePageFollowsTheSessionThroughTheBacksMerge) {
   const fs::path chromium_log = dir / "chromium.log";
   auto load = [&] {
     const test::CommandResult r = test::DumpDom(headless, view + "?live=0", chromium_log);
-    EXPECT_EQ(r.code, 0) << Tail(chromium_log);
+    EXPECT_EQ(r.code, 0) << SlurpTail(chromium_log);
     EXPECT_EQ(ElementText(r.out, "loaded"), "yes") << r.out.substr(0, 3000);
     EXPECT_EQ(ElementText(r.out, "errors"), "") << "script errors on the page";
-    EXPECT_EQ(Slurp(chromium_log).find("Uncaught"), std::string::npos) << Tail(chromium_log);
+    EXPECT_EQ(Slurp(chromium_log).find("Uncaught"), std::string::npos) << SlurpTail(chromium_log);
     return r.out;
   };
   auto trail = [&] {

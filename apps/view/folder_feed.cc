@@ -4,7 +4,6 @@
 
 #include <chrono>
 #include <functional>
-#include <sstream>
 
 #include "common/atomic_file.h"
 #include "ipc/daemon_status.h"

@@ -4,9 +4,7 @@
 #include <openssl/crypto.h>
 
 #include <filesystem>
-#include <fstream>
 #include <map>
-#include <sstream>
 
 #include "common/atomic_file.h"
 #include "common/process/subprocess.h"
@@ -22,7 +20,6 @@ const std::map<std::string, std::pair<std::string, std::string>> kFiles = {
     {"/", {"index.html", "text/html; charset=utf-8"}},
     {"/view.js", {"view.js", "text/javascript; charset=utf-8"}},
     {"/view.css", {"view.css", "text/css; charset=utf-8"}}};
-
 
 void Refuse(httplib::Response& res, int status, const std::string& reason) {
   res.status = status;

@@ -7,8 +7,6 @@
 #include <array>
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
-#include <iterator>
 #include <thread>
 
 #include "common/atomic_file.h"
@@ -25,6 +23,11 @@ std::string Slurp(const std::filesystem::path& p) {
   std::string text;
   ReadFileText(p.string(), &text, nullptr);  // a file not there: empty
   return text;
+}
+
+std::string SlurpTail(const std::filesystem::path& p, size_t max_chars) {
+  const std::string text = Slurp(p);
+  return text.size() > max_chars ? text.substr(text.size() - max_chars) : text;
 }
 
 double SecondsSince(std::chrono::steady_clock::time_point t) {

@@ -19,6 +19,8 @@ std::string BinPath(const std::string& name);
 
 // A text file's whole content ("" when unreadable).
 std::string Slurp(const std::filesystem::path& p);
+// Its last max_chars (a log's tail for a failure message).
+std::string SlurpTail(const std::filesystem::path& p, size_t max_chars = 3000);
 
 double SecondsSince(std::chrono::steady_clock::time_point t);
 
