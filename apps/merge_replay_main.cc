@@ -29,7 +29,7 @@ int Main(int argc, char** argv) {
   app.add_option("--map", o.map_path, "map file to load (e.g. map.rumi.raw)")->required();
   app.add_option("--config", config_path, "rumi YAML config (section manager:)");
   app.add_option("--trajectory", o.trajectory_path, "write the largest component's trajectory here (TUM)");
-  app.add_option("--groundtruth", o.groundtruth_path, "ground truth (TUM): print the merge audit (merge_audit.h)");
+  app.add_option("--groundtruth", o.groundtruth_path, "ground truth (TUM): print the merge and loop audits (merge_audit.h, loop_audit.h)");
   app.add_flag("--no-frame-pairs", no_frame_pairs, "manager.pair_tracked_frames = false");
   app.add_flag("--no-post-culling", no_culling, "skip redundant-keyframe culling");
   app.add_option("--complete-back-tracks", o.complete_back_px,

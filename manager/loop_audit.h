@@ -9,10 +9,21 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "common/run_metrics.h"
 #include "common/trajectory.h"
+#include "manager/loop_closure.h"
 
 namespace rumi {
+
+// A loop as manager_stats.json "loops" holds it (what the audit reads).
+nlohmann::json LoopReportToJson(const LoopReport& r);
+
+// The audit of loops in that form (a JSON array; a row without a field
+// throws nlohmann::json::exception).
+std::vector<LoopAuditRow> AuditLoopsJson(const nlohmann::json& loops, const Trajectory& ground_truth,
+                                         double max_dt_s = 0.02);
 
 // Throws std::runtime_error when the file cannot be read or parsed. A stats
 // file without "loops" (an older manager) gives no rows.

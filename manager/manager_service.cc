@@ -20,6 +20,7 @@
 #include "manager/odometry_merge.h"
 #include "manager/global_trajectory.h"
 #include "ipc/submap_codec.h"
+#include "manager/loop_audit.h"
 #include "manager/map_file.h"
 #include "manager/submap_index.h"
 #include "manager/map_grid.h"
@@ -574,23 +575,7 @@ bool ManagerService::WriteStats(std::string* why) const {
     const LoopClosureReport& l = stats_.loops;
     nlohmann::json loops = nlohmann::json::array();
     for (const LoopReport& r : l.loops)
-      loops.push_back({{"query", ToString(r.edge.query_submap)},
-                       {"query_keyframe", r.edge.query_keyframe},
-                       {"query_time_s", NsToSeconds(r.edge.query_time)},
-                       {"match", ToString(r.edge.match_submap)},
-                       {"match_keyframe", r.edge.match_keyframe},
-                       {"match_time_s", NsToSeconds(r.edge.match_time)},
-                       {"inliers", r.edge.inliers},
-                       {"matches", r.edge.matches},
-                       {"support", r.support},
-                       {"closed", r.closed},
-                       {"reason", r.reason},
-                       {"S_qm", Sim3ToJson(r.edge.S_qm)},
-                       {"depth", r.depth},
-                       {"shift", r.shift},
-                       {"shift_ratio", r.shift_ratio},
-                       {"rotation_deg", r.rotation_deg},
-                       {"scale_change", r.scale_change}});
+      loops.push_back(LoopReportToJson(r));
     j["loop_closures"] = l.closed;
     j["loops_waiting"] = l.waiting;
     j["loop_detections"] = l.detections;

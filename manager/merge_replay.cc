@@ -10,6 +10,7 @@
 #include "common/pose_jumps.h"
 #include "common/trajectory.h"
 #include "manager/global_trajectory.h"
+#include "manager/loop_audit.h"
 #include "manager/loop_closure.h"
 #include "manager/map_file.h"
 #include "manager/merge.h"
@@ -46,7 +47,7 @@ void PrepareBackSubmaps(GlobalMap* map, const MergeReplayOptions& o) {
 
 // As the manager's next rebuilds would: the loops left waiting
 // (loop_max_solves) are closed on the map corrected so far.
-void CloseLoopsAndPrint(GlobalMap* map, const MergeReplayOptions& o) {
+void CloseLoopsAndPrint(GlobalMap* map, const MergeReplayOptions& o, const Trajectory* gt) {
   LoopClosureState loop_state;
   LoopClosureReport loops = CloseLoops(map, o.manager, &loop_state);
   for (int round = 1; loops.waiting > 0 && round < o.loop_rounds; ++round) {
@@ -66,6 +67,27 @@ void CloseLoopsAndPrint(GlobalMap* map, const MergeReplayOptions& o) {
                              ToString(l.edge.match_submap), l.edge.match_keyframe, NsToSeconds(l.edge.match_time),
                              l.support, l.edge.inliers, l.edge.matches, l.closed, l.shift, 100 * l.shift_ratio,
                              l.rotation_deg, l.scale_change, l.reason);
+  if (!gt) return;
+  // The loop audit of `rumi eval run`, on the loops of the last round (every
+  // loop decided, those of earlier rounds included).
+  nlohmann::json rows = nlohmann::json::array();
+  for (const LoopReport& l : loops.loops) rows.push_back(LoopReportToJson(l));
+  int closed = 0, right = 0, harmful = 0, unjudged = 0;
+  auto opt = [](const std::optional<double>& v) { return v ? fmt::format("{:.2f}", *v) : std::string("-"); };
+  for (const LoopAuditRow& a : AuditLoopsJson(rows, *gt)) {
+    if (!a.closed) continue;
+    ++closed;
+    right += a.right;
+    harmful += a.harmful;
+    unjudged += !a.rotation_error_deg;
+    if (a.harmful)
+      std::cout << fmt::format("loop audit: harmful {} kf {} ({:.2f} s) -> {} kf {} ({:.2f} s): rotation {} deg, "
+                               "direction {} deg\n",
+                               a.query, a.query_keyframe, a.query_time_s, a.match, a.match_keyframe, a.match_time_s,
+                               opt(a.rotation_error_deg), opt(a.direction_error_deg));
+  }
+  std::cout << fmt::format("loop audit: {} closed: {} right, {} harmful, {} without ground truth\n", closed, right,
+                           harmful, unjudged);
 }
 
 void PrintMergeReports(const std::vector<MergeReport>& reports) {
@@ -84,16 +106,10 @@ void PrintMergeReports(const std::vector<MergeReport>& reports) {
 }
 
 // Each merge attempt against the ground truth, on the raw map reloaded.
-bool PrintAudit(const std::vector<MergeReport>& reports, const MergeReplayOptions& o, std::string* why) {
+bool PrintAudit(const std::vector<MergeReport>& reports, const MergeReplayOptions& o, const Trajectory& gt,
+                std::string* why) {
   GlobalMap raw;
   if (!LoadReplayMap(o.map_path, o.back_pose_jump_ratio, false, &raw, why)) return false;
-  Trajectory gt;
-  try {
-    gt = ReadTumTrajectory(o.groundtruth_path);
-  } catch (const std::exception& e) {
-    *why = e.what();
-    return false;
-  }
   auto opt = [](const std::optional<double>& v) { return v ? fmt::format("{:.4f}", *v) : std::string("-"); };
   for (const MergeAuditRow& m : AuditMerges(raw, AttemptsOf(reports), gt)) {
     std::cout << fmt::format("audit {} {} + {}: accepted={} frames={}+{} ate_a={} ate_b={} ate_joint={} "
@@ -146,9 +162,18 @@ bool ReplayMerges(GlobalMap* map, const MergeReplayOptions& o, std::string* why)
   auto reports = MergeAll(map, o.manager);
   for (MergeReport& r : PlaceMergeAll(map, o.manager)) reports.push_back(std::move(r));
   for (MergeReport& r : OdometryMergeAll(map, o.manager)) reports.push_back(std::move(r));
-  CloseLoopsAndPrint(map, o);
+  std::optional<Trajectory> gt;
+  if (!o.groundtruth_path.empty()) {
+    try {
+      gt = ReadTumTrajectory(o.groundtruth_path);
+    } catch (const std::exception& e) {
+      *why = e.what();
+      return false;
+    }
+  }
+  CloseLoopsAndPrint(map, o, gt ? &*gt : nullptr);
   PrintMergeReports(reports);
-  if (!o.groundtruth_path.empty() && !PrintAudit(reports, o, why)) return false;
+  if (gt && !PrintAudit(reports, o, *gt, why)) return false;
   if (o.post_culling) CullAndPrint(map, o.manager);
   const int root = map->size() ? map->LargestComponent() : -1;
   const auto traj = root >= 0 ? ComputeGlobalTrajectory(*map, root) : std::vector<GlobalPose>();

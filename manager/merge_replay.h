@@ -26,7 +26,7 @@ struct MergeReplayOptions {
   double complete_back_px = 0;       // first complete the back submaps' tracks at this radius (0: off)
   int min_back_observations = 0;     // first drop back points seen by fewer keyframes (0: off)
   int loop_rounds = 1000;            // loop closure rounds at most, each as one rebuild would close them
-  std::string groundtruth_path;      // TUM: print the merge audit (manager/merge_audit.h); "": none
+  std::string groundtruth_path;      // TUM: print the merge and loop audits (merge_audit.h, loop_audit.h); "": none
   bool post_culling = true;          // redundant-keyframe culling
   std::string trajectory_path;       // the largest component's trajectory (TUM); "": not written
 };
