@@ -306,6 +306,9 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
       by_component[map->Component(q.s)].push_back({carried, q.s, q.k, m.s, m.k, depth_at(q.s, q.k)});
     }
   PoseGraphOptions pgo;
+  pgo.consistency = o.loop_consistency;
+  pgo.chi2_confidence = o.loop_chi2_confidence;
+  pgo.variance_factor = o.loop_variance_factor;
   for (auto& [root, found] : by_component) {
     // Nodes: the component's front keyframes in time order.
     std::vector<Node> nodes;
@@ -467,6 +470,7 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
         LoopReport lr;
         PoseGraphEdge e;
         const Found* best;
+        bool alone = false;  // taken out of a refused lot: tried by itself
       };
       std::vector<Pending> pending;
       for (size_t gi = 0; gi < groups.size(); ++gi) {
@@ -496,6 +500,9 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
         const bool consistent = PoseGraphResidual(S_w, e, gopt).norm() <= gopt.outlier_factor * gopt.loss_scale;
         if (e.j >= e.i) {
           lr.reason = "the match is not older than the query";
+        } else if (pass == 1 && std::min(best.qk, best.mk) < o.loop_skip_first_keyframes) {
+          // A front's first keyframes rest on its initialisation alone.
+          lr.reason = "at one of its front's first " + std::to_string(o.loop_skip_first_keyframes) + " keyframes";
         } else if (pass == 0) {
           lr.closed = decided->second;
           lr.reason = decided->second ? "closed at an earlier rebuild" : "refused at an earlier rebuild";
@@ -531,6 +538,11 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
       bool one_by_one = false;
       while (next < pending.size()) {
         len = std::min(len, pending.size() - next);
+        for (size_t k = next; k < next + len; ++k)
+          if (pending[k].alone) {
+            len = std::max<size_t>(1, k - next);
+            break;
+          }
         // A lot only where a refusal leaves a solve for one loop alone: every
         // rebuild decides something.
         if (solves + 2 > o.loop_max_solves) len = 1;
@@ -562,7 +574,32 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
         const std::vector<Sim3> pre = S_w;
         const CloseLoopResult r = CloseLoopEdges(&S_w, edges, {0}, news, gopt);
         ++solves;
-        if (len > 1) spdlog::info("loop closure: {} new loops in one solve: {}", len, r.reason);
+        spdlog::info("loop closure: {} new loop(s) in one solve: chi2 +{:.1f} ({} dof): {}", len, r.chi2_increase,
+                     r.dof, r.reason);
+        if (!r.accepted && len > 1 && gopt.consistency == "chi2" && r.new_residuals.size() == len) {
+          // The lot's own worst loops out (each beyond one edge's bound, or
+          // the worst when none is), to be tried alone at the end; the rest
+          // again as a lot.
+          const double bound = std::sqrt(gopt.variance_factor * ChiSquareQuantile(7, gopt.chi2_confidence));
+          std::vector<bool> out(len, false);
+          size_t worst = 0, n_out = 0;
+          for (size_t k = 0; k < len; ++k) {
+            if (r.new_residuals[k] > r.new_residuals[worst]) worst = k;
+            if (r.new_residuals[k] > bound) out[k] = true, ++n_out;
+          }
+          if (n_out == 0) out[worst] = true, n_out = 1;
+          std::vector<Pending> kept, suspects;
+          for (size_t k = 0; k < len; ++k) (out[k] ? suspects : kept).push_back(std::move(pending[order[k]]));
+          std::stable_sort(kept.begin(), kept.end(), [](const Pending& a, const Pending& b) { return a.gi < b.gi; });
+          std::vector<Pending> rest(std::make_move_iterator(pending.begin() + long(next + len)),
+                                    std::make_move_iterator(pending.end()));
+          pending.resize(next);
+          for (auto* part : {&kept, &rest, &suspects})
+            for (Pending& p : *part) pending.push_back(std::move(p));
+          for (size_t k = pending.size() - suspects.size(); k < pending.size(); ++k) pending[k].alone = true;
+          len = std::max<size_t>(1, kept.size());
+          continue;
+        }
         if (r.accepted || len == 1) {
           for (size_t k = next; k < next + len; ++k) {
             Pending& p = pending[k];

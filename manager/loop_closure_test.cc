@@ -8,6 +8,7 @@
 #include <iostream>
 #include <map>
 #include <random>
+#include <string>
 
 #include "common/geometry.h"
 #include "manager/global_map.h"
@@ -16,13 +17,35 @@
 namespace rumi {
 namespace {
 
-TEST(LoopClosure, ARoomWalkedAgainIsClosedAndTheDriftCorrected) {
+// Each test below under each rule the graph can decide loops by
+// (ManagerOptions::loop_consistency), the chi2 one also with sigmas 5x wider.
+struct Rule {
+  std::string consistency;
+  double variance_factor;
+};
+
+ManagerOptions WithRule(const Rule& r) {
+  ManagerOptions mo;
+  mo.loop_consistency = r.consistency;
+  mo.loop_variance_factor = r.variance_factor;
+  return mo;
+}
+
+class LoopClosureRule : public ::testing::TestWithParam<Rule> {};
+
+INSTANTIATE_TEST_SUITE_P(Rules, LoopClosureRule,
+                         ::testing::Values(Rule{"edges", 1.0}, Rule{"chi2", 1.0}, Rule{"chi2", 25.0}),
+                         [](const ::testing::TestParamInfo<Rule>& i) {
+                           return i.param.consistency + "_" + std::to_string(int(i.param.variance_factor));
+                         });
+
+TEST_P(LoopClosureRule, ARoomWalkedAgainIsClosedAndTheDriftCorrected) {
   const WalkOptions o;
   const Walk w = MakeRoomWalk(o);
   GlobalMap map;
   map.AddSubmap(w.submap);
   const double before = KeyframeAte(w, map);
-  ManagerOptions mo;
+  const ManagerOptions mo = WithRule(GetParam());
   LoopClosureState state;
   const LoopClosureReport r = CloseLoops(&map, mo, &state);
   const double after = KeyframeAte(w, map);
@@ -88,7 +111,33 @@ TEST(LoopClosure, OffDoesNothing) {
   EXPECT_EQ(map.submap(0).keyframes[100].T_cw.translation(), w.submap.keyframes[100].T_cw.translation());
 }
 
-TEST(LoopClosure, TwoIdenticalPostersInDifferentRoomsCloseNoLoop) {
+// loop_skip_first_keyframes: a loop at one of a front's first keyframes is
+// reported, not closed; past them the room's loops close as before.
+TEST(LoopClosure, NoNewLoopAtAFrontsFirstKeyframes) {
+  const WalkOptions o;
+  const Walk w = MakeRoomWalk(o);
+  for (int skip : {o.keyframes, 10}) {
+    GlobalMap map;
+    map.AddSubmap(w.submap);
+    ManagerOptions mo;
+    mo.loop_skip_first_keyframes = skip;
+    LoopClosureState state;
+    const LoopClosureReport r = CloseLoops(&map, mo, &state);
+    ASSERT_FALSE(r.loops.empty());
+    if (skip == o.keyframes) {
+      EXPECT_EQ(r.closed, 0);
+      EXPECT_EQ(r.keyframes_moved, 0);
+      for (const LoopReport& l : r.loops)
+        EXPECT_NE(l.reason.find("first " + std::to_string(skip) + " keyframes"), std::string::npos) << l.reason;
+    } else {
+      // The room's loops join the second lap to the first, far past its
+      // first 10 keyframes.
+      EXPECT_GE(r.closed, 1);
+    }
+  }
+}
+
+TEST_P(LoopClosureRule, TwoIdenticalPostersInDifferentRoomsCloseNoLoop) {
   // A corridor walked once, 0.4 m/s along x, past two identical posters
   // (the same points, the same descriptors) 8 m apart: the second looks
   // exactly like the first, a perfect false loop for appearance and for
@@ -118,7 +167,7 @@ TEST(LoopClosure, TwoIdenticalPostersInDifferentRoomsCloseNoLoop) {
   for (int consistent : {3, 1}) {
     GlobalMap map;
     map.AddSubmap(w.submap);
-    ManagerOptions mo;
+    ManagerOptions mo = WithRule(GetParam());
     mo.loop_min_consistent = consistent;
     LoopClosureState state;
     const LoopClosureReport r = CloseLoops(&map, mo, &state);

@@ -134,6 +134,15 @@ const OptionSpec<ManagerOptions>& ManagerOptions::Spec() {
               "loop closure: pose-graph solves per rebuild for new loops (the rest wait)");
     s->Number("loop_batch", &O::loop_batch, AtLeast(1), AtMost(100000),
               "loop closure: new loops tried together in one solve (1: one by one)");
+    s->Choice("loop_consistency", &O::loop_consistency, {"edges", "chi2"},
+              "loop closure: the graph takes new loops when no edge strains past 3 sigma (edges) or when the "
+              "chi-square they add is within its quantile (chi2)");
+    s->Number("loop_chi2_confidence", &O::loop_chi2_confidence, Above(0.5), Below(1.0),
+              "loop closure: the chi-square quantile of the chi2 test");
+    s->Number("loop_variance_factor", &O::loop_variance_factor, Above(0.0), AtMost(1e6),
+              "loop closure: the chi2 test's variance factor (real spread over assumed sigmas, squared)");
+    s->Number("loop_skip_first_keyframes", &O::loop_skip_first_keyframes, AtLeast(0), AtMost(1000000),
+              "loop closure: new loops at one of a front submap's first N keyframes are not closed (0: any)");
     return s;
   }();
   return *spec;

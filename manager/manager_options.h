@@ -192,6 +192,20 @@ struct ManagerOptions {
   // few dozen); when the lot does not hold, the rest of the rebuild closes
   // them one by one. 1: one by one always.
   int loop_batch = 64;
+  // How the graph decides whether it takes new loops (PoseGraphOptions::
+  // consistency): "edges" (no edge that was consistent strained past
+  // 3 sigma) or "chi2" (the innovation's chi-square within its
+  // loop_chi2_confidence quantile; a lot refused is tried again without
+  // its own worst loops, which then go alone).
+  std::string loop_consistency = "edges";
+  double loop_chi2_confidence = 0.999;
+  // The chi2 test's variance factor: the walk's real spread over its
+  // assumed sigmas, squared (PoseGraphOptions::variance_factor).
+  double loop_variance_factor = 1.0;
+  // New loops whose query or match is among the first this many keyframes
+  // of its front submap are not closed (ORB-SLAM looks for loops only once
+  // its map has 10 keyframes). 0: any keyframe.
+  int loop_skip_first_keyframes = 0;
 
   // The keys of the `manager:` section (ReadOptions(root.Child("manager"), &o)).
   static const OptionSpec<ManagerOptions>& Spec();

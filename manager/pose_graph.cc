@@ -215,6 +215,12 @@ void DistributeCorrection(std::vector<Sim3>* S_w, const std::vector<int>& chain,
 
 namespace {
 
+double Chi2(const std::vector<Sim3>& S_w, const std::vector<PoseGraphEdge>& edges, const PoseGraphOptions& o) {
+  double sum = 0;
+  for (const PoseGraphEdge& e : edges) sum += PoseGraphResidual(S_w, e, o).squaredNorm();
+  return sum;
+}
+
 double MeanResidual(const std::vector<Sim3>& S_w, const std::vector<PoseGraphEdge>& edges, const PoseGraphOptions& o) {
   if (edges.empty()) return 0;
   double sum = 0;
@@ -223,6 +229,25 @@ double MeanResidual(const std::vector<Sim3>& S_w, const std::vector<PoseGraphEdg
 }
 
 }  // namespace
+
+double ChiSquareQuantile(int dof, double p) {
+  if (dof <= 0) return 0;
+  // The standard normal's p-quantile: Acklam's rational approximation is
+  // more than this needs; Abramowitz-Stegun 26.2.23 (error < 4.5e-4).
+  const double q = p < 0.5 ? p : 1.0 - p;
+  const double t = std::sqrt(-2.0 * std::log(std::max(q, 1e-300)));
+  double z = t - (2.515517 + 0.802853 * t + 0.010328 * t * t) / (1.0 + 1.432788 * t + 0.189269 * t * t +
+                                                                 0.001308 * t * t * t);
+  if (p < 0.5) z = -z;
+  const double k = dof, a = 2.0 / (9.0 * k);
+  const double c = 1.0 - a + z * std::sqrt(a);
+  return k * c * c * c;
+}
+
+double PoseGraphChi2(const std::vector<Sim3>& S_w, const std::vector<PoseGraphEdge>& edges,
+                     const PoseGraphOptions& o) {
+  return Chi2(S_w, edges, o);
+}
 
 CloseLoopResult CloseLoopEdges(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdge>& edges,
                                const std::vector<int>& fixed, const std::vector<NewGraphEdge>& news,
@@ -250,8 +275,19 @@ CloseLoopResult CloseLoopEdges(std::vector<Sim3>* S_w, const std::vector<PoseGra
           return r;
         }
   }
+  if (o.consistency != "edges" && o.consistency != "chi2") {
+    r.reason = "unknown consistency test '" + o.consistency + "' (edges or chi2)";
+    return r;
+  }
   const std::vector<Sim3> before = *S_w;
   r.mean_residual_before = MeanResidual(before, edges, o);
+  // The innovation is measured from the old graph's own optimum: edges
+  // taken without a solve (consistent already) may have left it short of it.
+  double chi2_before = Chi2(before, edges, o);
+  if (o.consistency == "chi2" && chi2_before > 0) {
+    std::vector<Sim3> old = before;
+    if (OptimizePoseGraph(&old, edges, fixed, o).ok) chi2_before = std::min(chi2_before, Chi2(old, edges, o));
+  }
   for (const NewGraphEdge& ne : news) {
     const Sim3 end_was = (*S_w)[size_t(ne.chain.back())];
     // Where the new edge puts its i: S_wi = S_wj * S_ij^-1.
@@ -270,6 +306,28 @@ CloseLoopResult CloseLoopEdges(std::vector<Sim3>* S_w, const std::vector<PoseGra
   };
   if (!r.solve.ok) return reject("the solve failed: " + r.solve.message);
   r.mean_residual_after = MeanResidual(*S_w, edges, o);
+  r.dof = 7 * static_cast<int>(news.size());
+  r.chi2_increase = Chi2(*S_w, all, o) - chi2_before;
+  for (const NewGraphEdge& ne : news) r.new_residuals.push_back(PoseGraphResidual(*S_w, ne.edge, o).norm());
+  if (o.consistency == "chi2") {
+    const double bound = o.variance_factor * ChiSquareQuantile(r.dof, o.chi2_confidence);
+    char why[200];
+    std::snprintf(why, sizeof(why), "the graph's chi-square rises by %.1f with %s (bound %.1f, %d dof)",
+                  r.chi2_increase, news.size() == 1 ? "it" : "them", bound, r.dof);
+    if (!(r.chi2_increase <= bound)) return reject(why);
+    // In a lot, one wrong edge's strain can hide in the others' slack: each
+    // new edge also within one edge's bound.
+    const double one = std::sqrt(o.variance_factor * ChiSquareQuantile(7, o.chi2_confidence));
+    for (size_t k = 0; k < r.new_residuals.size(); ++k)
+      if (!(r.new_residuals[k] <= one)) {
+        std::snprintf(why, sizeof(why), "new edge %zu disagrees with the graph (whitened residual %.1f, bound %.1f)",
+                      k, r.new_residuals[k], one);
+        return reject(why);
+      }
+    r.accepted = true;
+    r.reason = std::string("accepted: ") + why;
+    return r;
+  }
   for (int k : r.solve.outlier_edges) {
     if (k >= static_cast<int>(edges.size()))
       return reject(news.size() == 1 ? "the new edge disagrees with the graph (an outlier)"

@@ -49,11 +49,30 @@ struct PoseGraphOptions {
   int gnc_steps = 0;
   double gnc_factor = 10.0;
   int max_iterations = 100;  // per step
-  // CloseLoop accepts a new edge only if, after the solve, the edges that
-  // were there before stay consistent: their mean whitened residual at most
-  // this, and none of them becomes an outlier.
+  // How CloseLoop decides whether the graph takes its new edges:
+  // - "edges": after the solve the edges that were there before stay
+  //   consistent: their mean whitened residual at most max_mean_residual,
+  //   none of them becomes an outlier (outlier_factor), and no new edge is
+  //   an outlier.
+  // - "chi2": the increase of the graph's squared whitened residual that
+  //   the new edges bring (their innovation, chi-square with 7 degrees of
+  //   freedom per new edge when the sigmas are right) at most
+  //   variance_factor x its chi2_confidence quantile. One wrong edge shows
+  //   as the whole graph's strain, wherever least squares put it.
+  std::string consistency = "edges";
   double max_mean_residual = 3.0;
+  double chi2_confidence = 0.999;
+  // The sigmas' share of the real spread, squared (1: as assumed); a caller
+  // that measured it from the loops the graph holds passes it here.
+  double variance_factor = 1.0;
 };
+
+// The chi-square distribution's p-quantile with dof degrees of freedom
+// (Wilson-Hilferty: within 1 % above 3 degrees of freedom).
+double ChiSquareQuantile(int dof, double p);
+
+// Sum of the edges' squared whitened residuals at poses S_w.
+double PoseGraphChi2(const std::vector<Sim3>& S_w, const std::vector<PoseGraphEdge>& edges, const PoseGraphOptions& o);
 
 struct PoseGraphResult {
   bool ok = false;
@@ -90,6 +109,13 @@ struct CloseLoopResult {
   std::string reason;         // why not, or what was done
   PoseGraphResult solve;
   double mean_residual_before = 0, mean_residual_after = 0;  // of the edges that were there before
+  // The graph's squared whitened residual that the new edges brought
+  // (after the solve, with them, minus before, without them), its degrees
+  // of freedom (7 per new edge), and each new edge's own whitened residual
+  // after the solve, in the order given.
+  double chi2_increase = 0;
+  int dof = 0;
+  std::vector<double> new_residuals;
 };
 
 // A new loop (or merge) edge into a graph whose edges are consistent: its

@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <iostream>
+#include <random>
 
 namespace rumi {
 namespace {
@@ -31,18 +33,20 @@ struct Loop {
   std::vector<PoseGraphEdge> edges;
 };
 
-Loop DriftedLoop(int n, double yaw_deg, double scale_step, double lateral) {
+// The walk's steps measured with step_error(k) on step k, the start fixed,
+// the poses chained from the measured steps; the loop edge from the last
+// node to the first measured without error.
+Loop WalkedLoop(int n, const std::function<Sim3(int)>& step_error, bool robust = true) {
   Loop L;
   L.truth = Circle(n);
-  const Sim3 drift(scale_step, Eigen::Quaterniond(Eigen::AngleAxisd(yaw_deg * M_PI / 180, Eigen::Vector3d::UnitZ())),
-                   Eigen::Vector3d(0, lateral, 0));
   L.initial = {L.truth[0]};
   for (int k = 0; k + 1 < n; ++k) {
     PoseGraphEdge e;
     e.i = k;
     e.j = k + 1;
-    e.S_ij = Relative(L.truth[k], L.truth[k + 1]) * drift;
+    e.S_ij = Relative(L.truth[k], L.truth[k + 1]) * step_error(k);
     e.kind = PoseGraphEdgeKind::kCovisibility;
+    e.robust = robust;
     L.edges.push_back(e);
     L.initial.push_back(L.initial.back() * e.S_ij);
   }
@@ -51,8 +55,15 @@ Loop DriftedLoop(int n, double yaw_deg, double scale_step, double lateral) {
   loop.j = 0;
   loop.S_ij = Relative(L.truth[n - 1], L.truth[0]);
   loop.kind = PoseGraphEdgeKind::kLoop;
+  loop.robust = robust;
   L.edges.push_back(loop);
   return L;
+}
+
+Loop DriftedLoop(int n, double yaw_deg, double scale_step, double lateral) {
+  const Sim3 drift(scale_step, Eigen::Quaterniond(Eigen::AngleAxisd(yaw_deg * M_PI / 180, Eigen::Vector3d::UnitZ())),
+                   Eigen::Vector3d(0, lateral, 0));
+  return WalkedLoop(n, [&](int) { return drift; });
 }
 
 double MaxPositionError(const std::vector<Sim3>& a, const std::vector<Sim3>& b) {
@@ -257,6 +268,68 @@ TEST(PoseGraph, LoopsClosedTogetherInOneSolve) {
   EXPECT_FALSE(rb.accepted);
   std::cout << "with a wrong one among them: " << rb.reason << "\n";
   EXPECT_EQ(MaxPositionError(S, T.initial), 0.0) << "a refused batch changed the map";
+}
+
+TEST(PoseGraph, ChiSquareQuantileMatchesTheTables) {
+  // Values from the chi-square tables (NIST/SEMATECH).
+  EXPECT_NEAR(ChiSquareQuantile(7, 0.999), 24.322, 0.01 * 24.322);
+  EXPECT_NEAR(ChiSquareQuantile(7, 0.95), 14.067, 0.01 * 14.067);
+  EXPECT_NEAR(ChiSquareQuantile(14, 0.999), 36.123, 0.01 * 36.123);
+  EXPECT_NEAR(ChiSquareQuantile(70, 0.99), 100.425, 0.01 * 100.425);
+  EXPECT_NEAR(ChiSquareQuantile(100, 0.5), 99.334, 0.01 * 99.334);
+  EXPECT_EQ(ChiSquareQuantile(0, 0.999), 0.0);
+}
+
+// A walk whose every step errs by noise of the graph's own sigmas (a
+// random walk, what the chi-square test assumes), the start fixed.
+Loop NoisyLoop(int n, unsigned seed) {
+  const PoseGraphOptions o;
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0.0, 1.0);
+  return WalkedLoop(
+      n,
+      [&](int) {
+        const Eigen::Vector3d w(g(rng), g(rng), g(rng));
+        const Eigen::Vector3d t(g(rng), g(rng), g(rng));
+        return Sim3(std::exp(o.scale_sigma * g(rng)),
+                    Eigen::Quaterniond(Eigen::AngleAxisd(o.rotation_sigma_rad * w.norm(), w.normalized())),
+                    o.translation_sigma * t);
+      },
+      /*robust=*/false);
+}
+
+// The chi2 test: a right loop after a random walk brings the graph about
+// 7 (its degrees of freedom) and is taken; a wrong one (two places 3 m
+// apart) is refused and leaves the map as it was, on every seed.
+TEST(PoseGraph, TheChiSquareTestTakesARightLoopAndRefusesAWrongOne) {
+  PoseGraphOptions o;
+  o.consistency = "chi2";
+  double sum = 0;
+  const int seeds = 20;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    const Loop L = NoisyLoop(40, unsigned(seed));
+    const std::vector<PoseGraphEdge> walk(L.edges.begin(), L.edges.end() - 1);
+    std::vector<Sim3> S = L.initial;
+    const CloseLoopResult r = CloseLoop(&S, walk, {0}, L.edges.back(), Chain(0, 39), o);
+    ASSERT_TRUE(r.accepted) << "seed " << seed << ": " << r.reason;
+    EXPECT_EQ(r.dof, 7);
+    sum += r.chi2_increase;
+    std::vector<Sim3> W = L.initial;
+    const CloseLoopResult w = CloseLoop(&W, walk, {0}, WrongEdge(L), Chain(30, 10), o);
+    EXPECT_FALSE(w.accepted) << "seed " << seed << ": " << w.reason;
+    EXPECT_GT(w.chi2_increase, 10 * ChiSquareQuantile(7, o.chi2_confidence)) << "seed " << seed;
+    EXPECT_EQ(MaxPositionError(W, L.initial), 0.0) << "a refused edge changed the map";
+  }
+  // The innovation is chi-square with 7 degrees of freedom: its mean over
+  // the seeds near 7 (the tests of this file otherwise drift on purpose).
+  std::cout << "chi2 of a right loop, mean over " << seeds << " seeds: " << sum / seeds << "\n";
+  EXPECT_GT(sum / seeds, 3.0);
+  EXPECT_LT(sum / seeds, 14.0);
+  o.consistency = "median";
+  std::vector<Sim3> S = NoisyLoop(40, 1).initial;
+  const CloseLoopResult bad = CloseLoop(&S, {}, {0}, NoisyLoop(40, 1).edges.back(), Chain(0, 39), o);
+  EXPECT_FALSE(bad.accepted);
+  EXPECT_NE(bad.reason.find("unknown consistency test"), std::string::npos) << bad.reason;
 }
 
 TEST(PoseGraph, PointsMoveWithTheirNode) {
