@@ -580,7 +580,7 @@ LoopClosureReport CloseLoops(GlobalMap* map, const ManagerOptions& o, LoopClosur
           // The lot's own worst loops out (each beyond one edge's bound, or
           // the worst when none is), to be tried alone at the end; the rest
           // again as a lot.
-          const double bound = std::sqrt(gopt.variance_factor * ChiSquareQuantile(7, gopt.chi2_confidence));
+          const double bound = OneEdgeBound(gopt);
           std::vector<bool> out(len, false);
           size_t worst = 0, n_out = 0;
           for (size_t k = 0; k < len; ++k) {

@@ -244,9 +244,8 @@ double ChiSquareQuantile(int dof, double p) {
   return k * c * c * c;
 }
 
-double PoseGraphChi2(const std::vector<Sim3>& S_w, const std::vector<PoseGraphEdge>& edges,
-                     const PoseGraphOptions& o) {
-  return Chi2(S_w, edges, o);
+double OneEdgeBound(const PoseGraphOptions& o) {
+  return std::sqrt(o.variance_factor * ChiSquareQuantile(7, o.chi2_confidence));
 }
 
 CloseLoopResult CloseLoopEdges(std::vector<Sim3>* S_w, const std::vector<PoseGraphEdge>& edges,
@@ -317,7 +316,7 @@ CloseLoopResult CloseLoopEdges(std::vector<Sim3>* S_w, const std::vector<PoseGra
     if (!(r.chi2_increase <= bound)) return reject(why);
     // In a lot, one wrong edge's strain can hide in the others' slack: each
     // new edge also within one edge's bound.
-    const double one = std::sqrt(o.variance_factor * ChiSquareQuantile(7, o.chi2_confidence));
+    const double one = OneEdgeBound(o);
     for (size_t k = 0; k < r.new_residuals.size(); ++k)
       if (!(r.new_residuals[k] <= one)) {
         std::snprintf(why, sizeof(why), "new edge %zu disagrees with the graph (whitened residual %.1f, bound %.1f)",

@@ -71,8 +71,8 @@ struct PoseGraphOptions {
 // (Wilson-Hilferty: within 1 % above 3 degrees of freedom).
 double ChiSquareQuantile(int dof, double p);
 
-// Sum of the edges' squared whitened residuals at poses S_w.
-double PoseGraphChi2(const std::vector<Sim3>& S_w, const std::vector<PoseGraphEdge>& edges, const PoseGraphOptions& o);
+// The chi2 test's bound on one edge's whitened residual (its norm).
+double OneEdgeBound(const PoseGraphOptions& o);
 
 struct PoseGraphResult {
   bool ok = false;
